@@ -1,0 +1,29 @@
+// A scene: world settings plus bodies with their shapes, as plain data. Scene files (JSON, see
+// proto/fulcrum/v1/scene.proto) and the scene builders (scenes/builders) both produce one, and
+// build_world turns it into a World.
+#pragma once
+
+#include <vector>
+
+#include "fulcrum/status.h"
+#include "fulcrum/types.h"
+#include "fulcrum/world.h"
+
+namespace fulcrum {
+
+struct SceneBody {
+  BodyDef def;
+  std::vector<ShapeDef> shapes;
+  std::vector<ChainDef> chains;
+};
+
+struct SceneDef {
+  WorldSettings settings;
+  std::vector<SceneBody> bodies;
+};
+
+// Validates the whole scene first (messages name the place: "bodies[3].shapes[0].density"),
+// then builds it. Bodies are created in order, so bodies[i] gets index i.
+Result<World> build_world(const SceneDef& scene);
+
+}  // namespace fulcrum

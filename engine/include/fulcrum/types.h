@@ -1,0 +1,121 @@
+// Handles and definition structs. Every object is created from a plain definition with
+// sensible defaults; every field states its unit and range. Definitions map one to one onto the
+// proto messages in proto/fulcrum/v1/.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "fulcrum/geometry.h"
+#include "fulcrum/math.h"
+
+namespace fulcrum {
+
+// Handles are {index, generation}. A destroyed object's index is reused with a new generation,
+// so a stale handle is detected and refused, never dereferenced. Generation 0 is never issued:
+// a default-constructed handle is null.
+struct BodyId {
+  int32_t index = -1;
+  uint32_t generation = 0;
+  bool is_null() const { return generation == 0; }
+  friend bool operator==(const BodyId&, const BodyId&) = default;
+};
+
+struct ShapeId {
+  int32_t index = -1;
+  uint32_t generation = 0;
+  bool is_null() const { return generation == 0; }
+  friend bool operator==(const ShapeId&, const ShapeId&) = default;
+};
+
+enum class BodyType : uint8_t {
+  kStatic = 0,     // never moves; infinite mass; never integrated
+  kKinematic = 1,  // moves with its set velocity; infinite mass; pushes dynamic bodies
+  kDynamic = 2,    // moved by forces and contacts; mass from its shapes
+  kParticle = 3,   // dynamic with mass but no rotation (mass matrix m*I); one circle at its origin
+};
+const char* body_type_name(BodyType type);
+
+struct BodyDef {
+  BodyType type = BodyType::kStatic;
+  Vec2 position = Vec2::Zero();         // world position of the body origin, m
+  double angle = 0.0;                   // radians, any finite value (particles ignore it)
+  Vec2 linear_velocity = Vec2::Zero();  // of the body origin, m/s
+  double angular_velocity = 0.0;        // rad/s
+  double linear_damping = 0.0;          // 1/s, >= 0: dv/dt = -linear_damping * v
+  double angular_damping = 0.0;         // 1/s, >= 0
+  double gravity_scale = 1.0;           // multiplies world gravity; any finite value
+  bool fixed_rotation = false;          // a dynamic body that never turns
+  bool awake = true;                    // created awake or asleep
+  bool enable_sleep = true;             // false keeps this body (and its island) awake
+  uint64_t user_data = 0;               // carried, never interpreted
+};
+
+// Collision filtering: two shapes collide when (a.category & b.mask) != 0 and
+// (b.category & a.mask) != 0, unless they share a non-zero group: a positive group always
+// collides, a negative group never does.
+struct Filter {
+  uint64_t category_bits = 1;
+  uint64_t mask_bits = ~uint64_t{0};
+  int32_t group_index = 0;
+};
+
+struct ShapeDef {
+  Geometry geometry = Circle{};
+  double density = 1.0;      // kg/m^2, >= 0 (> 0 on the one shape of a particle)
+  double friction = 0.6;     // Coulomb coefficient, >= 0; mixed as sqrt(a * b)
+  double restitution = 0.0;  // >= 0 (1 = elastic); mixed as max(a, b)
+  Filter filter;
+  bool is_sensor = false;  // reports overlaps (sensor events), never responds to contact
+  uint64_t user_data = 0;
+};
+
+// A chain of two-sided segments for static terrain: points[i] to points[i + 1], plus the
+// closing segment when `loop` is set. Each segment becomes its own shape.
+struct ChainDef {
+  std::vector<Vec2> points;  // local, m; at least 2 (3 with loop); consecutive points distinct
+  bool loop = false;
+  double friction = 0.6;
+  double restitution = 0.0;
+  Filter filter;
+  uint64_t user_data = 0;
+};
+
+// World settings. All can be changed between ticks with World::set_settings.
+struct WorldSettings {
+  Vec2 gravity = Vec2(0.0, -10.0);  // m/s^2
+  double dt = 1.0 / 60.0;           // s, > 0: the length of one tick
+
+  // Solver.
+  int velocity_iterations = 8;         // >= 1: sequential-impulse passes over all rows
+  int position_iterations = 3;         // >= 0: pseudo-velocity passes (split impulses only)
+  bool split_impulses = true;          // position error fixed on pseudo velocities (no bounce)
+  double baumgarte = 0.2;              // [0, 1]: fraction of the position error fixed per tick
+  double linear_slop = 0.005;          // m, >= 0: penetration allowed before correcting
+  double max_correction_speed = 3.0;   // m/s, > 0: cap on the position-correction speed
+  double restitution_threshold = 1.0;  // m/s, >= 0: slower approaches do not bounce
+  double early_exit_tolerance = 0.0;   // N s, >= 0: stop iterating when every corrective
+                                       // impulse is below this (0: always run all passes)
+  bool warm_starting = true;           // start each tick from last tick's impulses
+  bool block_solver = true;            // solve two-point manifolds' normal rows together
+
+  // Collision.
+  double speculative_distance = 0.02;  // m, >= 0: contact points kept up to this separation
+  double aabb_margin = 0.1;            // m, >= 0: fattening of broad-phase boxes
+  double max_linear_speed = 400.0;     // m/s, > 0: speeds above are clamped
+
+  // Sleeping.
+  bool enable_sleep = true;
+  double time_to_sleep = 0.5;              // s, > 0: resting this long puts an island to sleep
+  double linear_sleep_tolerance = 0.05;    // m/s, >= 0
+  double angular_sleep_tolerance = 0.035;  // rad/s, >= 0 (2 degrees/s)
+};
+
+// Checks every field against its range; the message names the field.
+Status validate_settings(const WorldSettings& s);
+Status validate_body_def(const BodyDef& def);
+Status validate_shape_def(const ShapeDef& def);
+Status validate_chain_def(const ChainDef& def);
+
+}  // namespace fulcrum

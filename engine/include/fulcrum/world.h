@@ -1,0 +1,161 @@
+// The simulation world: bodies, shapes, contacts, and the fixed-timestep step.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "fulcrum/geometry.h"
+#include "fulcrum/math.h"
+#include "fulcrum/status.h"
+#include "fulcrum/types.h"
+
+namespace fulcrum {
+
+// What a body looks like from outside.
+struct BodyState {
+  BodyType type = BodyType::kStatic;
+  Transform transform;                  // body origin and rotation
+  Vec2 center = Vec2::Zero();           // world centre of mass, m
+  Vec2 linear_velocity = Vec2::Zero();  // of the centre of mass, m/s
+  double angular_velocity = 0.0;        // rad/s
+  double mass = 0.0;                    // kg (0 for static and kinematic bodies)
+  double rotational_inertia = 0.0;      // about the centre of mass, kg m^2
+  bool awake = false;
+  uint64_t user_data = 0;
+};
+
+struct ShapeInfo {
+  BodyId body;
+  ShapeType type = ShapeType::kCircle;
+  Geometry geometry;
+  double density = 0.0;
+  double friction = 0.0;
+  double restitution = 0.0;
+  Filter filter;
+  bool is_sensor = false;
+  uint64_t user_data = 0;
+};
+
+// Contact and sensor events of the last step, in a deterministic order (by shape ids).
+struct ContactEvent {
+  ShapeId shape_a;
+  ShapeId shape_b;
+};
+struct SensorEvent {
+  ShapeId sensor;
+  ShapeId visitor;
+};
+struct StepEvents {
+  std::vector<ContactEvent> contact_begin;
+  std::vector<ContactEvent> contact_end;
+  std::vector<SensorEvent> sensor_begin;
+  std::vector<SensorEvent> sensor_end;
+};
+
+// Accuracy figures any world reports on request, for tests and the speed-against-error report.
+struct WorldMetrics {
+  int64_t tick = 0;
+  int body_count = 0;
+  int awake_body_count = 0;
+  int contact_count = 0;            // touching, non-sensor manifolds
+  double max_penetration = 0.0;     // largest overlap over all contact points, m (>= 0)
+  double mean_penetration = 0.0;    // mean overlap over overlapping contact points, m
+  double kinetic_energy = 0.0;      // J
+  double potential_energy = 0.0;    // J, m g . x summed (relative to the origin)
+  Vec2 linear_momentum = Vec2::Zero();  // kg m/s
+  double angular_momentum = 0.0;    // about the origin, kg m^2/s
+  double max_speed = 0.0;           // largest linear speed of any body, m/s
+};
+
+struct QueryFilter {
+  uint64_t category_bits = 1;
+  uint64_t mask_bits = ~uint64_t{0};
+};
+
+struct RayHit {
+  ShapeId shape;
+  Vec2 point = Vec2::Zero();
+  Vec2 normal = Vec2::Zero();
+  double fraction = 0.0;
+};
+
+class WorldImpl;
+
+class World {
+ public:
+  explicit World(const WorldSettings& settings = {});
+  ~World();
+  World(World&&) noexcept;
+  World& operator=(World&&) noexcept;
+  World(const World&) = delete;
+  World& operator=(const World&) = delete;
+
+  // Settings are checked whole; on error nothing changes.
+  Status set_settings(const WorldSettings& settings);
+  const WorldSettings& settings() const;
+
+  // --- Bodies and shapes (each call either succeeds whole or changes nothing) ---------------
+  Result<BodyId> create_body(const BodyDef& def);
+  // Destroys the body and its shapes and contacts.
+  Status destroy_body(BodyId id);
+  Result<ShapeId> create_shape(BodyId body, const ShapeDef& def);
+  Result<std::vector<ShapeId>> create_chain(BodyId body, const ChainDef& def);
+  Status destroy_shape(ShapeId id);
+
+  bool is_valid(BodyId id) const;
+  bool is_valid(ShapeId id) const;
+  Result<BodyState> body_state(BodyId id) const;
+  Result<ShapeInfo> shape_info(ShapeId id) const;
+  Result<std::vector<ShapeId>> body_shapes(BodyId id) const;
+  // Live bodies in index order.
+  std::vector<BodyId> bodies() const;
+  int body_count() const;
+
+  // Edits wake the body (and its island).
+  Status set_transform(BodyId id, const Vec2& position, double angle);
+  Status set_linear_velocity(BodyId id, const Vec2& v);
+  Status set_angular_velocity(BodyId id, double w);
+  // Forces act for the next tick only. `point` is a world point.
+  Status apply_force(BodyId id, const Vec2& force, const Vec2& point);
+  Status apply_force_to_center(BodyId id, const Vec2& force);
+  Status apply_torque(BodyId id, double torque);
+  Status apply_linear_impulse(BodyId id, const Vec2& impulse, const Vec2& point);
+  Status apply_angular_impulse(BodyId id, double impulse);
+  Status set_awake(BodyId id, bool awake);
+  Status set_shape_material(ShapeId id, double friction, double restitution);
+  Status set_shape_filter(ShapeId id, const Filter& filter);
+
+  // --- Simulation ----------------------------------------------------------------------------
+  // Advances exactly one tick of settings().dt.
+  void step();
+  int64_t tick() const;
+  // Events produced by the last step.
+  const StepEvents& events() const;
+
+  // 64-bit hash of every bit of state that evolves, over bit patterns in id order.
+  uint64_t state_hash() const;
+  WorldMetrics metrics() const;
+
+  // --- Queries (results in a deterministic order) --------------------------------------------
+  // The nearest hit along origin -> origin + translation (ties broken by shape id).
+  std::optional<RayHit> ray_cast_closest(const Vec2& origin, const Vec2& translation,
+                                         const QueryFilter& filter = {}) const;
+  // Every hit, sorted by fraction then shape id.
+  std::vector<RayHit> ray_cast_all(const Vec2& origin, const Vec2& translation,
+                                   const QueryFilter& filter = {}) const;
+  // Shapes whose bounding box overlaps `box`, by shape id.
+  std::vector<ShapeId> overlap_aabb(const AABB& box, const QueryFilter& filter = {}) const;
+  // Shapes that contain the point, by shape id (sensors included).
+  std::vector<ShapeId> overlap_point(const Vec2& point, const QueryFilter& filter = {}) const;
+
+  // Internal access for tests and the engine's own modules.
+  WorldImpl& impl() { return *impl_; }
+  const WorldImpl& impl() const { return *impl_; }
+
+ private:
+  std::unique_ptr<WorldImpl> impl_;
+};
+
+}  // namespace fulcrum

@@ -1,0 +1,75 @@
+// A dynamic AABB tree (bounding volume hierarchy) for the broad phase and for queries. Leaves
+// hold fattened boxes so that a shape moving a little does not change the tree. Insertion picks
+// the sibling by the surface-area heuristic and the tree is kept balanced by rotations.
+// Everything is deterministic: the same sequence of calls builds the same tree and visits
+// leaves in the same order.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "fulcrum/geometry.h"
+#include "fulcrum/math.h"
+
+namespace fulcrum {
+
+inline constexpr int kNullNode = -1;
+
+class DynamicTree {
+ public:
+  DynamicTree();
+
+  // Inserts a leaf with this (already fattened) box; returns its proxy id. Ids of destroyed
+  // proxies are reused, most recently freed first.
+  int create_proxy(const AABB& fat_aabb, uint64_t user_data);
+  void destroy_proxy(int proxy_id);
+  // Replaces a leaf's box (re-inserting the leaf).
+  void move_proxy(int proxy_id, const AABB& fat_aabb);
+
+  const AABB& fat_aabb(int proxy_id) const { return nodes_[proxy_id].aabb; }
+  uint64_t user_data(int proxy_id) const { return nodes_[proxy_id].user_data; }
+
+  // Calls callback(proxy_id) for every leaf whose box overlaps `aabb`; the callback returns
+  // false to stop the query.
+  template <typename Callback>
+  void query(const AABB& aabb, Callback&& callback) const;
+
+  // Calls callback(input, proxy_id) for every leaf whose box the ray crosses, nearest-first is
+  // not guaranteed. The callback returns the new max fraction: 0 ends the cast, a value in
+  // (0, input.max_fraction) clips the ray, input.max_fraction (or more) keeps it.
+  template <typename Callback>
+  void ray_cast(const RayCastInput& input, Callback&& callback) const;
+
+  int height() const;
+  int proxy_count() const { return proxy_count_; }
+  // Sum of internal node perimeters over the root perimeter (a quality measure).
+  double area_ratio() const;
+  // Checks parent links, heights and boxes; returns false if the structure is broken.
+  bool validate() const;
+
+ private:
+  struct Node {
+    AABB aabb;
+    uint64_t user_data = 0;
+    int parent_or_next = kNullNode;  // parent, or the next free node while on the free list
+    int child1 = kNullNode;
+    int child2 = kNullNode;
+    int height = -1;  // leaf = 0, free = -1
+    bool is_leaf() const { return child1 == kNullNode; }
+  };
+
+  int allocate_node();
+  void free_node(int node);
+  void insert_leaf(int leaf);
+  void remove_leaf(int leaf);
+  int balance(int index);
+
+  std::vector<Node> nodes_;
+  int root_ = kNullNode;
+  int free_list_ = kNullNode;
+  int proxy_count_ = 0;
+};
+
+}  // namespace fulcrum
+
+#include "dynamic_tree_inl.h"
