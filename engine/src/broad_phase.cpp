@@ -1,1 +1,87 @@
-// placeholder
+// Broad phase: shapes' fattened boxes in one dynamic tree. Shapes whose boxes moved are
+// buffered; once per step each buffered box is queried against the tree and new pairs become
+// contacts. Pairs are sorted before creation, so contact ids never depend on tree order.
+#include <algorithm>
+
+#include "world_impl.h"
+
+namespace fulcrum {
+
+void WorldImpl::create_proxy(int si) {
+  Shape& s = shapes[si];
+  const Body& b = bodies[s.body];
+  AABB fat = compute_aabb(s.geometry, b.xf).fattened(settings.aabb_margin);
+  s.proxy = tree.create_proxy(fat, static_cast<uint64_t>(si));
+  if (!s.in_move_buffer) {
+    s.in_move_buffer = true;
+    move_buffer.push_back(si);
+  }
+}
+
+void WorldImpl::destroy_proxy(int si) {
+  Shape& s = shapes[si];
+  if (s.in_move_buffer) {
+    move_buffer.erase(std::find(move_buffer.begin(), move_buffer.end(), si));
+    s.in_move_buffer = false;
+  }
+  if (s.proxy != kNullIndex) tree.destroy_proxy(s.proxy);
+  s.proxy = kNullIndex;
+}
+
+// Re-fits the fat boxes of a body's shapes that left them. A shape that stays inside its fat
+// box costs one box computation and no tree work.
+void WorldImpl::synchronize_shapes(int bi) {
+  const Body& b = bodies[bi];
+  for (int si : b.shapes) {
+    Shape& s = shapes[si];
+    AABB box = compute_aabb(s.geometry, b.xf);
+    if (tree.fat_aabb(s.proxy).contains(box)) continue;
+    tree.move_proxy(s.proxy, box.fattened(settings.aabb_margin));
+    if (!s.in_move_buffer) {
+      s.in_move_buffer = true;
+      move_buffer.push_back(si);
+    }
+  }
+}
+
+bool WorldImpl::should_collide(int sa, int sb) const {
+  const Shape& a = shapes[sa];
+  const Shape& b = shapes[sb];
+  if (a.body == b.body) return false;
+  const Body& ba = bodies[a.body];
+  const Body& bb = bodies[b.body];
+  if (!ba.is_dynamic() && !bb.is_dynamic()) return false;
+  if (a.filter.group_index != 0 && a.filter.group_index == b.filter.group_index) {
+    return a.filter.group_index > 0;
+  }
+  return (a.filter.category_bits & b.filter.mask_bits) != 0 &&
+         (b.filter.category_bits & a.filter.mask_bits) != 0;
+}
+
+void WorldImpl::update_pairs() {
+  if (move_buffer.empty()) return;
+  // Collect candidate pairs (lower shape index first). A pair of two moved shapes is found
+  // from both sides; sorting and removing duplicates handles that.
+  std::vector<std::pair<int, int>> pairs;
+  for (int si : move_buffer) {
+    const AABB& box = tree.fat_aabb(shapes[si].proxy);
+    tree.query(box, [&](int proxy) {
+      int other = static_cast<int>(tree.user_data(proxy));
+      if (other == si) return true;
+      if (shapes[other].in_move_buffer && other < si) return true;  // found from its side
+      pairs.emplace_back(std::min(si, other), std::max(si, other));
+      return true;
+    });
+  }
+  for (int si : move_buffer) shapes[si].in_move_buffer = false;
+  move_buffer.clear();
+
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  for (const auto& [sa, sb] : pairs) {
+    if (!should_collide(sa, sb) || has_contact(sa, sb)) continue;
+    create_contact(sa, sb);
+  }
+}
+
+}  // namespace fulcrum

@@ -1,1 +1,176 @@
-// placeholder
+// Contacts: one per overlapping pair of fat boxes. Each step refreshes the manifolds of contacts
+// that touch an awake body, carries accumulated impulses over by feature id (warm starting),
+// and reports touch events.
+#include <algorithm>
+#include <cmath>
+
+#include "world_impl.h"
+
+namespace fulcrum {
+
+namespace {
+
+void link_edge(std::vector<Contact>& contacts, std::vector<Body>& bodies, int ci, int side,
+               int bi) {
+  Contact& c = contacts[ci];
+  int key = 2 * ci + side;
+  Body& b = bodies[bi];
+  c.edges[side].prev = kNullIndex;
+  c.edges[side].next = b.contact_list;
+  if (b.contact_list != kNullIndex) {
+    contacts[edge_contact(b.contact_list)].edges[edge_side(b.contact_list)].prev = key;
+  }
+  b.contact_list = key;
+}
+
+void unlink_edge(std::vector<Contact>& contacts, std::vector<Body>& bodies, int ci, int side,
+                 int bi) {
+  ContactEdge& e = contacts[ci].edges[side];
+  if (e.prev != kNullIndex) {
+    contacts[edge_contact(e.prev)].edges[edge_side(e.prev)].next = e.next;
+  } else {
+    bodies[bi].contact_list = e.next;
+  }
+  if (e.next != kNullIndex) {
+    contacts[edge_contact(e.next)].edges[edge_side(e.next)].prev = e.prev;
+  }
+  e.prev = e.next = kNullIndex;
+}
+
+// Whether two shapes overlap (for sensors): a manifold point with negative separation.
+bool overlapping(const Manifold& m) {
+  for (int i = 0; i < m.count; ++i) {
+    if (m.points[i].separation < 0.0) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+bool WorldImpl::has_contact(int sa, int sb) const {
+  // Walk the shorter of the two bodies' lists would need counts; bodies have few contacts.
+  const Body& b = bodies[shapes[sa].body];
+  for (int e = b.contact_list; e != kNullIndex;) {
+    const Contact& c = contacts[edge_contact(e)];
+    if ((c.shape_a == sa && c.shape_b == sb) || (c.shape_a == sb && c.shape_b == sa)) return true;
+    e = c.edges[edge_side(e)].next;
+  }
+  return false;
+}
+
+void WorldImpl::create_contact(int sa, int sb) {
+  // The manifold functions want the lower shape type first.
+  if (geometry_type(shapes[sb].geometry) < geometry_type(shapes[sa].geometry)) std::swap(sa, sb);
+  if (geometry_type(shapes[sa].geometry) == ShapeType::kSegment &&
+      geometry_type(shapes[sb].geometry) == ShapeType::kSegment) {
+    return;  // segments never meet segments
+  }
+  int ci;
+  if (!free_contacts.empty()) {
+    ci = free_contacts.back();
+    free_contacts.pop_back();
+  } else {
+    ci = static_cast<int>(contacts.size());
+    contacts.emplace_back();
+  }
+  Contact& c = contacts[ci];
+  c = Contact{};
+  c.alive = true;
+  c.shape_a = sa;
+  c.shape_b = sb;
+  c.body_a = shapes[sa].body;
+  c.body_b = shapes[sb].body;
+  c.sensor = shapes[sa].is_sensor || shapes[sb].is_sensor;
+  c.friction = std::sqrt(shapes[sa].friction * shapes[sb].friction);
+  c.restitution = std::max(shapes[sa].restitution, shapes[sb].restitution);
+  link_edge(contacts, bodies, ci, 0, c.body_a);
+  link_edge(contacts, bodies, ci, 1, c.body_b);
+}
+
+void WorldImpl::destroy_contact(int ci, bool report_end) {
+  Contact& c = contacts[ci];
+  if (report_end && c.touching) {
+    if (c.sensor) {
+      bool a_sensor = shapes[c.shape_a].is_sensor;
+      events.sensor_end.push_back({shape_id(a_sensor ? c.shape_a : c.shape_b),
+                                   shape_id(a_sensor ? c.shape_b : c.shape_a)});
+    } else {
+      events.contact_end.push_back({shape_id(c.shape_a), shape_id(c.shape_b)});
+    }
+  }
+  unlink_edge(contacts, bodies, ci, 0, c.body_a);
+  unlink_edge(contacts, bodies, ci, 1, c.body_b);
+  c.alive = false;
+  free_contacts.push_back(ci);
+}
+
+void WorldImpl::destroy_body_contacts(int bi) {
+  while (bodies[bi].contact_list != kNullIndex) {
+    destroy_contact(edge_contact(bodies[bi].contact_list), true);
+  }
+}
+
+void WorldImpl::collide() {
+  // Gather the contacts of awake bodies (each once), in contact id order.
+  std::vector<int>& list = scratch_contacts;
+  list.clear();
+  for (int bi : awake_bodies) {
+    for (int e = bodies[bi].contact_list; e != kNullIndex;) {
+      Contact& c = contacts[edge_contact(e)];
+      if (c.stamp != step_stamp) {
+        c.stamp = step_stamp;
+        list.push_back(edge_contact(e));
+      }
+      e = c.edges[edge_side(e)].next;
+    }
+  }
+  std::sort(list.begin(), list.end());
+
+  const double speculative = settings.speculative_distance;
+  for (int ci : list) {
+    Contact& c = contacts[ci];
+    const Shape& sa = shapes[c.shape_a];
+    const Shape& sb = shapes[c.shape_b];
+    if (!tree.fat_aabb(sa.proxy).overlaps(tree.fat_aabb(sb.proxy))) {
+      destroy_contact(ci, true);
+      continue;
+    }
+    const Body& ba = bodies[c.body_a];
+    const Body& bb = bodies[c.body_b];
+    Manifold old = c.manifold;
+    c.manifold = fulcrum::collide(sa.geometry, ba.xf, sb.geometry, bb.xf, c.sensor ? 0.0 : speculative);
+
+    // Warm starting: a point that keeps its feature id keeps its accumulated impulses.
+    for (int i = 0; i < c.manifold.count; ++i) {
+      ManifoldPoint& p = c.manifold.points[i];
+      for (int j = 0; j < old.count; ++j) {
+        if (old.points[j].id == p.id) {
+          p.normal_impulse = old.points[j].normal_impulse;
+          p.tangent_impulse = old.points[j].tangent_impulse;
+          p.persisted = true;
+          break;
+        }
+      }
+    }
+
+    bool was_touching = c.touching;
+    c.touching = c.sensor ? overlapping(c.manifold) : c.manifold.count > 0;
+    // An awake body touching a sleeping one wakes it (and what rests on it).
+    if (c.touching && !c.sensor) {
+      if (!bodies[c.body_a].awake) wake_island(c.body_a);
+      if (!bodies[c.body_b].awake) wake_island(c.body_b);
+    }
+    if (c.touching == was_touching) continue;
+    if (c.sensor) {
+      bool a_sensor = sa.is_sensor;
+      SensorEvent ev{shape_id(a_sensor ? c.shape_a : c.shape_b),
+                     shape_id(a_sensor ? c.shape_b : c.shape_a)};
+      (c.touching ? events.sensor_begin : events.sensor_end).push_back(ev);
+      continue;
+    }
+    (c.touching ? events.contact_begin : events.contact_end)
+        .push_back({shape_id(c.shape_a), shape_id(c.shape_b)});
+  }
+}
+
+}  // namespace fulcrum

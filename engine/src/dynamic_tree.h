@@ -58,15 +58,31 @@ class DynamicTree {
     bool is_leaf() const { return child1 == kNullNode; }
   };
 
+  // A traversal stack local to one query or ray cast (defined in dynamic_tree_inl.h): a fixed
+  // array with a heap fallback, so traversals are const, re-entrant and allocation-free.
+  class TraversalStack;
+
   int allocate_node();
   void free_node(int node);
   void insert_leaf(int leaf);
   void remove_leaf(int leaf);
-  int balance(int index);
+  // The sibling for a new leaf with this box, by the surface-area heuristic.
+  int find_best_sibling(const AABB& box) const;
+  // Restores the height balance of the subtree at `index` (whose child subtrees are balanced)
+  // and refits its box and height; may swap nodes below it, never `index` itself.
+  void balance(int index);
+  // Swaps `child` of `index` with `grandchild`, a child of `other` (index's other child).
+  void swap_with_grandchild(int index, int child, int other, int grandchild);
+  // Balances and refits `index` and every ancestor up to the root.
+  void balance_upward(int index);
+  // Box and height of an internal node from its children.
+  void refit(int index);
+  void replace_child(int parent, int old_child, int new_child);
 
   std::vector<Node> nodes_;
   int root_ = kNullNode;
   int free_list_ = kNullNode;
+  int node_count_ = 0;  // nodes in the tree (leaves and internal), not on the free list
   int proxy_count_ = 0;
 };
 

@@ -1,1 +1,78 @@
-// placeholder
+// Islands and sleep. Each step the awake bodies are joined into islands by union-find over
+// touching contacts (static and kinematic bodies do not join islands). An island whose every
+// body has rested for settings.time_to_sleep goes to sleep as a whole; it then costs nothing
+// until an awake body touches it or an edit wakes it.
+#include <algorithm>
+
+#include "world_impl.h"
+
+namespace fulcrum {
+
+namespace {
+
+int find_root(std::vector<int>& parent, int i) {
+  while (parent[i] != i) {
+    parent[i] = parent[parent[i]];  // path halving
+    i = parent[i];
+  }
+  return i;
+}
+
+}  // namespace
+
+void WorldImpl::update_sleep(const std::vector<int>& awake) {
+  if (awake.empty()) return;
+  const double h = settings.dt;
+  const double lin_tol2 = settings.linear_sleep_tolerance * settings.linear_sleep_tolerance;
+  const double ang_tol2 = settings.angular_sleep_tolerance * settings.angular_sleep_tolerance;
+  const int n = static_cast<int>(awake.size());
+  std::vector<int>& slot = solver_scratch.body_slot;  // body -> 1 + position in `awake`
+
+  // Rest timers.
+  std::vector<double> island_min(n);
+  for (int k = 0; k < n; ++k) {
+    Body& b = bodies[awake[k]];
+    bool resting = settings.enable_sleep && b.enable_sleep &&
+                   length_squared(b.v) <= lin_tol2 && b.w * b.w <= ang_tol2;
+    b.sleep_time = resting ? b.sleep_time + h : 0.0;
+    island_min[k] = b.sleep_time;
+  }
+
+  // Union over touching solid contacts between awake dynamic bodies. A body touching a moving
+  // kinematic body may not sleep.
+  std::vector<int> parent(n);
+  for (int k = 0; k < n; ++k) parent[k] = k;
+  for (int k = 0; k < n; ++k) {
+    int bi = awake[k];
+    if (!bodies[bi].is_dynamic()) continue;
+    for (int e = bodies[bi].contact_list; e != kNullIndex;) {
+      const Contact& c = contacts[edge_contact(e)];
+      e = c.edges[edge_side(e)].next;
+      if (!c.touching || c.sensor) continue;
+      int other = c.body_a == bi ? c.body_b : c.body_a;
+      const Body& o = bodies[other];
+      if (o.type == BodyType::kKinematic) {
+        if (o.sleep_time == 0.0) island_min[k] = 0.0;
+        continue;
+      }
+      if (!o.is_dynamic() || !o.awake || other < bi) continue;
+      int ra = find_root(parent, k);
+      int rb = find_root(parent, slot[other] - 1);
+      if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+    }
+  }
+
+  // An island sleeps when its least rested body has rested long enough.
+  std::vector<double> root_min(n, 1e300);
+  for (int k = 0; k < n; ++k) {
+    int r = find_root(parent, k);
+    root_min[r] = std::min(root_min[r], island_min[k]);
+  }
+  for (int k = 0; k < n; ++k) {
+    if (root_min[find_root(parent, k)] >= settings.time_to_sleep) {
+      set_awake_flag(awake[k], false);
+    }
+  }
+}
+
+}  // namespace fulcrum

@@ -1,1 +1,91 @@
-// placeholder
+// The state hash: 64 bits over the bit patterns of everything that evolves, visited in id
+// order. Never over serialized bytes (protobuf serialization is not canonical).
+#include <bit>
+#include <cstring>
+
+#include "world_impl.h"
+
+namespace fulcrum {
+
+namespace {
+
+// A word-at-a-time mix (multiply, rotate, multiply as in xxHash64's round), strong enough that
+// any single-bit change anywhere changes the result.
+class Hasher {
+ public:
+  void add(uint64_t x) {
+    h_ ^= std::rotl(x * 0xC2B2AE3D27D4EB4Full, 31) * 0x9E3779B185EBCA87ull;
+    h_ = std::rotl(h_, 27) * 0x9E3779B185EBCA87ull + 0x85EBCA77C2B2AE63ull;
+  }
+  void add(double x) { add(std::bit_cast<uint64_t>(x)); }
+  void add(const Vec2& v) {
+    add(v.x());
+    add(v.y());
+  }
+  void add(int x) { add(static_cast<uint64_t>(static_cast<int64_t>(x))); }
+  void add(bool x) { add(static_cast<uint64_t>(x)); }
+  uint64_t value() const {
+    uint64_t h = h_;
+    h ^= h >> 33;
+    h *= 0xFF51AFD7ED558CCDull;
+    h ^= h >> 33;
+    return h;
+  }
+
+ private:
+  uint64_t h_ = 0x27D4EB2F165667C5ull;
+};
+
+}  // namespace
+
+uint64_t World::state_hash() const {
+  const WorldImpl& w = *impl_;
+  Hasher h;
+  h.add(static_cast<uint64_t>(w.tick));
+  h.add(static_cast<uint64_t>(w.bodies.size()));
+  for (const Body& b : w.bodies) {
+    h.add(b.alive);
+    h.add(static_cast<uint64_t>(b.generation));
+    if (!b.alive) continue;
+    h.add(static_cast<int>(b.type));
+    h.add(b.xf.p);
+    h.add(b.xf.q.c);
+    h.add(b.xf.q.s);
+    h.add(b.center);
+    h.add(b.v);
+    h.add(b.w);
+    h.add(b.force);
+    h.add(b.torque);
+    h.add(b.awake);
+    h.add(b.sleep_time);
+  }
+  h.add(static_cast<uint64_t>(w.shapes.size()));
+  for (const Shape& s : w.shapes) {
+    h.add(s.alive);
+    h.add(static_cast<uint64_t>(s.generation));
+  }
+  h.add(static_cast<uint64_t>(w.contacts.size()));
+  for (const Contact& c : w.contacts) {
+    h.add(c.alive);
+    if (!c.alive) continue;
+    h.add(c.shape_a);
+    h.add(c.shape_b);
+    h.add(c.touching);
+    h.add(c.manifold.normal);
+    h.add(c.manifold.count);
+    for (int i = 0; i < c.manifold.count; ++i) {
+      const ManifoldPoint& p = c.manifold.points[i];
+      h.add(static_cast<uint64_t>(p.id));
+      h.add(p.point);
+      h.add(p.separation);
+      h.add(p.normal_impulse);
+      h.add(p.tangent_impulse);
+    }
+  }
+  for (int i : w.free_bodies) h.add(i);
+  for (int i : w.free_shapes) h.add(i);
+  for (int i : w.free_contacts) h.add(i);
+  return h.value();
+}
+
+}  // namespace fulcrum

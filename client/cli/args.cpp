@@ -1,0 +1,105 @@
+#include "args.h"
+
+#include <charconv>
+#include <limits>
+
+namespace fulcrum::cli {
+namespace {
+
+const FlagSpec* find_spec(std::span<const FlagSpec> specs, std::string_view name) {
+  for (const FlagSpec& spec : specs) {
+    if (spec.name == name) return &spec;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+bool Args::parse(std::span<const std::string> argv, std::span<const FlagSpec> specs, Args* out,
+                 std::string* error) {
+  *out = Args();
+  bool flags_done = false;
+  for (size_t i = 0; i < argv.size(); ++i) {
+    const std::string& word = argv[i];
+    if (flags_done || word.size() < 2 || word[0] != '-') {
+      out->positional_.push_back(word);
+      continue;
+    }
+    if (word == "--") {
+      flags_done = true;
+      continue;
+    }
+    if (word == "-h" || word == "--help") {
+      out->help_ = true;
+      continue;
+    }
+    if (word.rfind("--", 0) != 0) {
+      *error = "unknown flag '" + word + "' (flags are spelt --name)";
+      return false;
+    }
+    std::string name = word.substr(2);
+    std::optional<std::string> inline_value;
+    if (size_t eq = name.find('='); eq != std::string::npos) {
+      inline_value = name.substr(eq + 1);
+      name.resize(eq);
+    }
+    const FlagSpec* spec = find_spec(specs, name);
+    if (spec == nullptr) {
+      *error = "unknown flag '--" + name + "'";
+      return false;
+    }
+    if (out->values_.count(name) != 0) {
+      *error = "--" + name + " given more than once";
+      return false;
+    }
+    std::string value;
+    if (spec->value_name.empty()) {
+      if (inline_value) {
+        *error = "--" + name + " takes no value";
+        return false;
+      }
+    } else if (inline_value) {
+      value = *inline_value;
+    } else {
+      // A following flag is not taken as the value: "--scene --ticks 5" is a missing value.
+      if (i + 1 >= argv.size() || argv[i + 1].rfind("--", 0) == 0) {
+        *error = "--" + name + " needs a value (" + std::string(spec->value_name) + ")";
+        return false;
+      }
+      value = argv[++i];
+    }
+    out->values_.emplace(name, std::move(value));
+  }
+  return true;
+}
+
+std::optional<std::string> Args::value(std::string_view name) const {
+  auto it = values_.find(std::string(name));
+  if (it == values_.end()) return std::nullopt;
+  return it->second;
+}
+
+std::optional<int64_t> parse_int(std::string_view text, int64_t min, int64_t max,
+                                 std::string* error) {
+  int64_t value = 0;
+  const char* begin = text.data();
+  const char* end = text.data() + text.size();
+  auto [ptr, ec] = std::from_chars(begin, end, value);
+  if (text.empty() || ec == std::errc::invalid_argument || ptr != end) {
+    *error = "expected a whole number, got '" + std::string(text) + "'";
+    return std::nullopt;
+  }
+  if (ec == std::errc::result_out_of_range || value < min || value > max) {
+    *error = "must be ";
+    if (max == std::numeric_limits<int64_t>::max()) {
+      *error += ">= " + std::to_string(min);
+    } else {
+      *error += "in [" + std::to_string(min) + ", " + std::to_string(max) + "]";
+    }
+    *error += ", got " + std::string(text);
+    return std::nullopt;
+  }
+  return value;
+}
+
+}  // namespace fulcrum::cli

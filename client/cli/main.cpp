@@ -1,0 +1,110 @@
+// fulcrum: the command-line client. Subcommands are listed in the table in commands(); each
+// lives in its own file.
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "args.h"
+#include "command.h"
+
+namespace fulcrum::cli {
+namespace {
+
+constexpr FlagSpec kSimFlags[] = {
+    kSceneFlag,
+    kBuiltinFlag,
+    {"ticks", "N", "number of ticks to step (>= 0)"},
+    {"json", "", "print one JSON object instead of text"},
+};
+constexpr FlagSpec kExportFlags[] = {kSceneFlag, kBuiltinFlag};
+
+constexpr Command kCommands[] = {
+    {"sim", "build a scene, step it N ticks, print the state hash and accuracy figures",
+     "(--scene FILE | --builtin NAME) --ticks N [--json]",
+     "Steps the scene on one thread and reports the final tick, the 64-bit state hash, the wall "
+     "time per step and World::metrics() (penetration, energy, momentum, awake bodies, "
+     "contacts).",
+     kSimFlags, 0, run_sim},
+    {"scenes", "list the built-in scenes", "", "", {}, 0, run_scenes},
+    {"export", "print a scene as JSON (explicit bodies, all settings)",
+     "(--scene FILE | --builtin NAME)",
+     "The output is a scene file: `fulcrum sim --scene` on it gives the same state hash.",
+     kExportFlags, 0, run_export},
+};
+
+void print_main_help(std::ostream& out) {
+  out << "fulcrum: deterministic 2D rigid-body physics\n\n"
+         "usage: fulcrum COMMAND [FLAGS]\n"
+         "       fulcrum COMMAND --help\n\n"
+         "commands:\n";
+  for (const Command& c : commands()) {
+    std::string name(c.name);
+    name.resize(10, ' ');
+    out << "  " << name << c.summary << "\n";
+  }
+  out << "\nexit codes: 0 success, 1 the scene or simulation failed, 2 bad command line\n";
+}
+
+const Command* find_command(std::string_view name) {
+  for (const Command& c : commands()) {
+    if (c.name == name) return &c;
+  }
+  return nullptr;
+}
+
+int main_impl(const std::vector<std::string>& argv) {
+  if (argv.empty()) {
+    print_main_help(std::cerr);
+    return kExitUsage;
+  }
+  const std::string& first = argv[0];
+  if (first == "--help" || first == "-h" || first == "help") {
+    if (first == "help" && argv.size() > 1) {
+      const Command* c = find_command(argv[1]);
+      if (c == nullptr) {
+        std::cerr << "fulcrum: unknown command '" << argv[1] << "'\n";
+        return kExitUsage;
+      }
+      print_command_help(*c, std::cout);
+    } else {
+      print_main_help(std::cout);
+    }
+    return kExitOk;
+  }
+  const Command* command = find_command(first);
+  if (command == nullptr) {
+    std::cerr << "fulcrum: unknown command '" << first << "' (see fulcrum --help)\n";
+    return kExitUsage;
+  }
+
+  Invocation inv{*command, Args(), std::cout, std::cerr};
+  std::string error;
+  std::span<const std::string> rest(argv.begin() + 1, argv.end());
+  if (!Args::parse(rest, command->flags, &inv.args, &error)) return inv.usage_error(error);
+  if (inv.args.help()) {
+    print_command_help(*command, std::cout);
+    return kExitOk;
+  }
+  const auto& positional = inv.args.positional();
+  if (static_cast<int>(positional.size()) > command->max_positional) {
+    return inv.usage_error("unexpected argument '" + positional[command->max_positional] + "'");
+  }
+  return command->run(inv);
+}
+
+}  // namespace
+
+std::span<const Command> commands() {
+  return kCommands;
+}
+
+}  // namespace fulcrum::cli
+
+int main(int argc, char** argv) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  int code = fulcrum::cli::main_impl(args);
+  std::cout.flush();
+  // A failed write (closed pipe, full disk) must not look like success.
+  if (code == fulcrum::cli::kExitOk && !std::cout) return fulcrum::cli::kExitError;
+  return code;
+}

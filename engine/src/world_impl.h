@@ -1,0 +1,147 @@
+// The world's internal state. Bodies, shapes and contacts live in pools indexed by id; the
+// solver copies what it touches into compact per-step arrays (contact_solver.h) so that the hot
+// loops read little memory.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "contact_solver.h"
+#include "dynamic_tree.h"
+#include "fulcrum/world.h"
+#include "manifold.h"
+
+namespace fulcrum {
+
+inline constexpr int kNullIndex = -1;
+
+struct Body {
+  BodyType type = BodyType::kStatic;
+  uint32_t generation = 0;
+  bool alive = false;
+
+  Transform xf;                          // body origin
+  Vec2 local_center = Vec2::Zero();      // centre of mass in the body frame
+  Vec2 center = Vec2::Zero();            // centre of mass, world
+  Vec2 v = Vec2::Zero();                 // velocity of the centre of mass
+  double w = 0.0;
+  Vec2 force = Vec2::Zero();             // applied for the next tick
+  double torque = 0.0;
+
+  double mass = 0.0, inv_mass = 0.0;
+  double inertia = 0.0, inv_inertia = 0.0;  // about the centre of mass
+  double linear_damping = 0.0, angular_damping = 0.0, gravity_scale = 1.0;
+  bool fixed_rotation = false;
+  bool awake = false;
+  bool enable_sleep = true;
+  double sleep_time = 0.0;
+  uint64_t user_data = 0;
+
+  std::vector<int> shapes;       // shape indices, in creation order
+  int contact_list = kNullIndex;  // head of this body's contact edge list (edge key)
+  int awake_slot = kNullIndex;    // position in WorldImpl::awake_bodies, or kNullIndex
+
+  bool is_dynamic() const { return type == BodyType::kDynamic || type == BodyType::kParticle; }
+  bool rotates() const { return type != BodyType::kParticle && !fixed_rotation; }
+};
+
+struct Shape {
+  int body = kNullIndex;
+  uint32_t generation = 0;
+  bool alive = false;
+  Geometry geometry;
+  double density = 0.0, friction = 0.0, restitution = 0.0;
+  Filter filter;
+  bool is_sensor = false;
+  uint64_t user_data = 0;
+  int proxy = kNullIndex;    // broad-phase leaf
+  bool in_move_buffer = false;
+};
+
+// A contact sits in two intrusive doubly linked lists, one per body. Edge key = 2 * contact
+// index + side (0: body A, 1: body B).
+struct ContactEdge {
+  int prev = kNullIndex;
+  int next = kNullIndex;
+};
+
+struct Contact {
+  bool alive = false;
+  bool touching = false;
+  bool sensor = false;
+  int shape_a = kNullIndex, shape_b = kNullIndex;  // geometry_type(a) <= geometry_type(b)
+  int body_a = kNullIndex, body_b = kNullIndex;
+  double friction = 0.0, restitution = 0.0;  // mixed once at creation
+  Manifold manifold;
+  ContactEdge edges[2];
+  uint32_t stamp = 0;  // the step that last collected it (dedupe while gathering)
+};
+
+class WorldImpl {
+ public:
+  explicit WorldImpl(const WorldSettings& s) : settings(s) {}
+
+  WorldSettings settings;
+  int64_t tick = 0;
+  uint32_t step_stamp = 0;
+
+  std::vector<Body> bodies;
+  std::vector<int> free_bodies;  // reused last-freed first
+  std::vector<Shape> shapes;
+  std::vector<int> free_shapes;
+  std::vector<Contact> contacts;
+  std::vector<int> free_contacts;
+  std::vector<int> awake_bodies;  // unordered set (swap-remove); sorted when a step uses it
+  int body_count = 0;
+
+  DynamicTree tree;
+  std::vector<int> move_buffer;  // shape indices whose proxies moved or were created
+
+  StepEvents events;
+
+  // --- lookups (return kNullIndex for stale or unknown handles) ---
+  int body_index(BodyId id) const;
+  int shape_index(ShapeId id) const;
+  BodyId body_id(int index) const { return BodyId{index, bodies[index].generation}; }
+  ShapeId shape_id(int index) const { return ShapeId{index, shapes[index].generation}; }
+
+  // --- bodies (world.cpp) ---
+  void update_mass(int body);
+  void set_awake_flag(int body, bool awake);
+  // Wakes a sleeping dynamic body and everything resting on it (its former island).
+  void wake_island(int body);
+  // Wakes sleeping bodies whose shapes' boxes overlap `box`.
+  void wake_in_box(const AABB& box);
+
+  // --- broad phase (broad_phase.cpp) ---
+  void create_proxy(int shape);
+  void destroy_proxy(int shape);
+  void synchronize_shapes(int body);
+  void update_pairs();
+  bool should_collide(int shape_a, int shape_b) const;
+
+  // --- contacts (contact.cpp) ---
+  void create_contact(int shape_a, int shape_b);
+  void destroy_contact(int contact, bool report_end);
+  bool has_contact(int shape_a, int shape_b) const;
+  // Refreshes the manifolds of contacts with an awake body; destroys contacts whose boxes
+  // stopped overlapping; reports begin/end events; wakes bodies touched by awake ones.
+  void collide();
+  void destroy_body_contacts(int body);
+
+  // --- islands and sleep (island.cpp) ---
+  void update_sleep(const std::vector<int>& awake_sorted);
+
+  // --- solver (contact_solver.cpp) ---
+  void solve(const std::vector<int>& awake_sorted);
+
+  // Scratch reused every step (never part of the state).
+  std::vector<int> scratch_contacts;
+  std::vector<int> scratch_awake;
+  SolverScratch solver_scratch;
+};
+
+inline int edge_contact(int edge_key) { return edge_key >> 1; }
+inline int edge_side(int edge_key) { return edge_key & 1; }
+
+}  // namespace fulcrum

@@ -1,0 +1,723 @@
+#include "scene_convert.h"
+
+#include <google/protobuf/util/json_util.h>
+
+#include <algorithm>
+#include <bit>
+#include <cerrno>
+#include <charconv>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <span>
+#include <sstream>
+#include <utility>
+#include <vector>
+
+#include "fulcrum/geometry.h"
+#include "fulcrum/scenes.h"
+#include "fulcrum/types.h"
+
+namespace fulcrum {
+namespace {
+
+// Local to this file (status.h may define its own macro; this one does not depend on it).
+#define CONVERT_RETURN_IF_ERROR(expr)  \
+  do {                                 \
+    Status status_ = (expr);           \
+    if (!status_.ok()) return status_; \
+  } while (false)
+
+// Builder sizes are capped so that a small request cannot ask for an unbounded allocation.
+constexpr int kMaxPyramidBase = 1000;
+constexpr int kMaxStackCount = 10000;
+
+// Shortest text that parses back to the same double ("-1", "0.1", "nan").
+std::string fmt(double v) {
+  char buf[64];
+  auto [end, ec] = std::to_chars(buf, buf + sizeof(buf), v);
+  return ec == std::errc() ? std::string(buf, end) : std::string("?");
+}
+
+std::string join(const std::string& path, std::string_view field) {
+  return path.empty() ? std::string(field) : path + "." + std::string(field);
+}
+
+std::string indexed(const std::string& path, std::string_view field, int i) {
+  return join(path, field) + "[" + std::to_string(i) + "]";
+}
+
+Status fail(const std::string& path, const std::string& what) {
+  return invalid_argument(path + ": " + what);
+}
+
+// --- Range checks ------------------------------------------------------------------------------
+
+enum class Range {
+  kFinite,       // any finite value
+  kPositive,     // finite and > 0
+  kNonNegative,  // finite and >= 0
+  kUnit,         // [0, 1]
+};
+
+Status check(const std::string& path, double v, Range range) {
+  // Written as !(ok) so that NaN fails every test.
+  switch (range) {
+    case Range::kFinite:
+      if (!is_finite(v)) return fail(path, "must be finite (got " + fmt(v) + ")");
+      break;
+    case Range::kPositive:
+      if (!(v > 0.0) || !is_finite(v)) return fail(path, "must be > 0 (got " + fmt(v) + ")");
+      break;
+    case Range::kNonNegative:
+      if (!(v >= 0.0) || !is_finite(v)) return fail(path, "must be >= 0 (got " + fmt(v) + ")");
+      break;
+    case Range::kUnit:
+      if (!(v >= 0.0 && v <= 1.0)) return fail(path, "must be in [0, 1] (got " + fmt(v) + ")");
+      break;
+  }
+  return Status::ok_status();
+}
+
+Status check_int(const std::string& path, int64_t v, int64_t lo, int64_t hi) {
+  if (v < lo || v > hi) {
+    std::string range = hi == INT32_MAX
+                            ? ">= " + std::to_string(lo)
+                            : "in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+    return fail(path, "must be " + range + " (got " + std::to_string(v) + ")");
+  }
+  return Status::ok_status();
+}
+
+// Sizes of geometry must also stay clear of the degenerate range.
+Status check_size(const std::string& path, double v) {
+  CONVERT_RETURN_IF_ERROR(check(path, v, Range::kPositive));
+  if (v < kGeometryTolerance) {
+    return fail(path, "must be >= " + fmt(kGeometryTolerance) + " m (got " + fmt(v) + ")");
+  }
+  return Status::ok_status();
+}
+
+Vec2 to_vec(const v1::Vec2& v) {
+  return Vec2(v.x(), v.y());
+}
+
+Status check_vec(const std::string& path, const v1::Vec2& v) {
+  CONVERT_RETURN_IF_ERROR(check(path + ".x", v.x(), Range::kFinite));
+  return check(path + ".y", v.y(), Range::kFinite);
+}
+
+// Reads an optional double field: checked and copied when present, `*out` kept otherwise.
+Status read_opt(const std::string& path, bool has, double value, Range range, double* out) {
+  if (!has) return Status::ok_status();
+  CONVERT_RETURN_IF_ERROR(check(path, value, range));
+  *out = value;
+  return Status::ok_status();
+}
+
+// Reads a present-or-absent Vec2 message field the same way.
+Status read_opt_vec(const std::string& path, bool has, const v1::Vec2& value, Vec2* out) {
+  if (!has) return Status::ok_status();
+  CONVERT_RETURN_IF_ERROR(check_vec(path, value));
+  *out = to_vec(value);
+  return Status::ok_status();
+}
+
+// --- Proto to engine ---------------------------------------------------------------------------
+
+Status settings_from_proto(const v1::WorldSettings& p, const std::string& path, WorldSettings* s) {
+  CONVERT_RETURN_IF_ERROR(
+      read_opt_vec(join(path, "gravity"), p.has_gravity(), p.gravity(), &s->gravity));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "dt"), p.has_dt(), p.dt(), Range::kPositive, &s->dt));
+  if (p.has_velocity_iterations()) {
+    CONVERT_RETURN_IF_ERROR(
+        check_int(join(path, "velocity_iterations"), p.velocity_iterations(), 1, INT32_MAX));
+    s->velocity_iterations = p.velocity_iterations();
+  }
+  if (p.has_position_iterations()) {
+    CONVERT_RETURN_IF_ERROR(
+        check_int(join(path, "position_iterations"), p.position_iterations(), 0, INT32_MAX));
+    s->position_iterations = p.position_iterations();
+  }
+  if (p.has_split_impulses()) s->split_impulses = p.split_impulses();
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "baumgarte"), p.has_baumgarte(), p.baumgarte(),
+                                   Range::kUnit, &s->baumgarte));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "linear_slop"), p.has_linear_slop(), p.linear_slop(),
+                                   Range::kNonNegative, &s->linear_slop));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "max_correction_speed"), p.has_max_correction_speed(),
+                                   p.max_correction_speed(), Range::kPositive,
+                                   &s->max_correction_speed));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "restitution_threshold"),
+                                   p.has_restitution_threshold(), p.restitution_threshold(),
+                                   Range::kNonNegative, &s->restitution_threshold));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "early_exit_tolerance"), p.has_early_exit_tolerance(),
+                                   p.early_exit_tolerance(), Range::kNonNegative,
+                                   &s->early_exit_tolerance));
+  if (p.has_warm_starting()) s->warm_starting = p.warm_starting();
+  if (p.has_block_solver()) s->block_solver = p.block_solver();
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "speculative_distance"), p.has_speculative_distance(),
+                                   p.speculative_distance(), Range::kNonNegative,
+                                   &s->speculative_distance));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "aabb_margin"), p.has_aabb_margin(), p.aabb_margin(),
+                                   Range::kNonNegative, &s->aabb_margin));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "max_linear_speed"), p.has_max_linear_speed(),
+                                   p.max_linear_speed(), Range::kPositive, &s->max_linear_speed));
+  if (p.has_enable_sleep()) s->enable_sleep = p.enable_sleep();
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "time_to_sleep"), p.has_time_to_sleep(),
+                                   p.time_to_sleep(), Range::kPositive, &s->time_to_sleep));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "linear_sleep_tolerance"),
+                                   p.has_linear_sleep_tolerance(), p.linear_sleep_tolerance(),
+                                   Range::kNonNegative, &s->linear_sleep_tolerance));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "angular_sleep_tolerance"),
+                                   p.has_angular_sleep_tolerance(), p.angular_sleep_tolerance(),
+                                   Range::kNonNegative, &s->angular_sleep_tolerance));
+  return Status::ok_status();
+}
+
+Filter filter_from_proto(const v1::Filter& p) {
+  Filter f;
+  if (p.has_category_bits()) f.category_bits = p.category_bits();
+  if (p.has_mask_bits()) f.mask_bits = p.mask_bits();
+  f.group_index = p.group_index();
+  return f;
+}
+
+Status circle_from_proto(const v1::Circle& p, const std::string& path, Geometry* out) {
+  Circle c;
+  CONVERT_RETURN_IF_ERROR(
+      read_opt_vec(join(path, "center"), p.has_center(), p.center(), &c.center));
+  if (p.has_radius()) {
+    CONVERT_RETURN_IF_ERROR(check_size(join(path, "radius"), p.radius()));
+    c.radius = p.radius();
+  }
+  *out = c;
+  return Status::ok_status();
+}
+
+Status capsule_from_proto(const v1::Capsule& p, const std::string& path, Geometry* out) {
+  Capsule c;
+  CONVERT_RETURN_IF_ERROR(
+      read_opt_vec(join(path, "center1"), p.has_center1(), p.center1(), &c.center1));
+  CONVERT_RETURN_IF_ERROR(
+      read_opt_vec(join(path, "center2"), p.has_center2(), p.center2(), &c.center2));
+  if (p.has_radius()) {
+    CONVERT_RETURN_IF_ERROR(check_size(join(path, "radius"), p.radius()));
+    c.radius = p.radius();
+  }
+  if (!(distance(c.center1, c.center2) > kGeometryTolerance)) {
+    return fail(path,
+                "center1 and center2 must be more than " + fmt(kGeometryTolerance) + " m apart");
+  }
+  *out = c;
+  return Status::ok_status();
+}
+
+Status segment_from_proto(const v1::Segment& p, const std::string& path, Geometry* out) {
+  Segment s;
+  CONVERT_RETURN_IF_ERROR(
+      read_opt_vec(join(path, "point1"), p.has_point1(), p.point1(), &s.point1));
+  CONVERT_RETURN_IF_ERROR(
+      read_opt_vec(join(path, "point2"), p.has_point2(), p.point2(), &s.point2));
+  if (!(distance(s.point1, s.point2) > kGeometryTolerance)) {
+    return fail(path,
+                "point1 and point2 must be more than " + fmt(kGeometryTolerance) + " m apart");
+  }
+  *out = s;
+  return Status::ok_status();
+}
+
+Status polygon_from_proto(const v1::Polygon& p, const std::string& path, Geometry* out) {
+  const int n = p.vertices_size();
+  if (n < 3 || n > kMaxPolygonVertices) {
+    return fail(join(path, "vertices"), "need 3 to " + std::to_string(kMaxPolygonVertices) +
+                                            " vertices (got " + std::to_string(n) + ")");
+  }
+  std::vector<Vec2> vertices;
+  vertices.reserve(n);
+  for (int i = 0; i < n; ++i) {
+    CONVERT_RETURN_IF_ERROR(check_vec(indexed(path, "vertices", i), p.vertices(i)));
+    vertices.push_back(to_vec(p.vertices(i)));
+  }
+  CONVERT_RETURN_IF_ERROR(check(join(path, "radius"), p.radius(), Range::kNonNegative));
+  // Convexity, winding and edge lengths are the engine's rules; it names the field itself.
+  Polygon polygon;
+  CONVERT_RETURN_IF_ERROR(make_polygon(vertices, p.radius(), &polygon, path.c_str()));
+  *out = polygon;
+  return Status::ok_status();
+}
+
+Status box_from_proto(const v1::Box& p, const std::string& path, Geometry* out) {
+  CONVERT_RETURN_IF_ERROR(check_size(join(path, "half_width"), p.half_width()));
+  CONVERT_RETURN_IF_ERROR(check_size(join(path, "half_height"), p.half_height()));
+  if (p.has_center()) CONVERT_RETURN_IF_ERROR(check_vec(join(path, "center"), p.center()));
+  CONVERT_RETURN_IF_ERROR(check(join(path, "angle"), p.angle(), Range::kFinite));
+  CONVERT_RETURN_IF_ERROR(check(join(path, "radius"), p.radius(), Range::kNonNegative));
+  Vec2 center = p.has_center() ? to_vec(p.center()) : Vec2::Zero();
+  // The centred, unturned box goes through make_box so that it is bit-identical to the boxes
+  // the builders make (and scene_to_proto can recognise it again).
+  Polygon box = center == Vec2::Zero() && p.angle() == 0.0
+                    ? make_box(p.half_width(), p.half_height())
+                    : make_offset_box(p.half_width(), p.half_height(), center, p.angle());
+  box.radius = p.radius();
+  *out = box;
+  return Status::ok_status();
+}
+
+Status shape_from_proto(const v1::Shape& p, const std::string& path, ShapeDef* def) {
+  switch (p.geometry_case()) {
+    case v1::Shape::kCircle:
+      CONVERT_RETURN_IF_ERROR(circle_from_proto(p.circle(), join(path, "circle"), &def->geometry));
+      break;
+    case v1::Shape::kCapsule:
+      CONVERT_RETURN_IF_ERROR(
+          capsule_from_proto(p.capsule(), join(path, "capsule"), &def->geometry));
+      break;
+    case v1::Shape::kSegment:
+      CONVERT_RETURN_IF_ERROR(
+          segment_from_proto(p.segment(), join(path, "segment"), &def->geometry));
+      break;
+    case v1::Shape::kPolygon:
+      CONVERT_RETURN_IF_ERROR(
+          polygon_from_proto(p.polygon(), join(path, "polygon"), &def->geometry));
+      break;
+    case v1::Shape::kBox:
+      CONVERT_RETURN_IF_ERROR(box_from_proto(p.box(), join(path, "box"), &def->geometry));
+      break;
+    case v1::Shape::GEOMETRY_NOT_SET:
+      return fail(path, "no geometry (set one of circle, capsule, segment, polygon, box)");
+  }
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "density"), p.has_density(), p.density(),
+                                   Range::kNonNegative, &def->density));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "friction"), p.has_friction(), p.friction(),
+                                   Range::kNonNegative, &def->friction));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "restitution"), p.has_restitution(), p.restitution(),
+                                   Range::kNonNegative, &def->restitution));
+  def->filter = filter_from_proto(p.filter());
+  def->is_sensor = p.is_sensor();
+  def->user_data = p.user_data();
+  return Status::ok_status();
+}
+
+Status chain_from_proto(const v1::Chain& p, const std::string& path, ChainDef* def) {
+  const int n = p.points_size();
+  const int min_points = p.loop() ? 3 : 2;
+  if (n < min_points) {
+    return fail(join(path, "points"), "need at least " + std::to_string(min_points) +
+                                          (p.loop() ? " points for a loop" : " points") + " (got " +
+                                          std::to_string(n) + ")");
+  }
+  def->points.clear();
+  def->points.reserve(n);
+  for (int i = 0; i < n; ++i) {
+    CONVERT_RETURN_IF_ERROR(check_vec(indexed(path, "points", i), p.points(i)));
+    def->points.push_back(to_vec(p.points(i)));
+    if (i > 0 && def->points[i] == def->points[i - 1]) {
+      return fail(indexed(path, "points", i), "equals the previous point");
+    }
+  }
+  if (p.loop() && def->points.front() == def->points.back()) {
+    return fail(indexed(path, "points", n - 1),
+                "equals the first point (a loop closes itself; do not repeat it)");
+  }
+  def->loop = p.loop();
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "friction"), p.has_friction(), p.friction(),
+                                   Range::kNonNegative, &def->friction));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "restitution"), p.has_restitution(), p.restitution(),
+                                   Range::kNonNegative, &def->restitution));
+  def->filter = filter_from_proto(p.filter());
+  def->user_data = p.user_data();
+  return Status::ok_status();
+}
+
+Status body_from_proto(const v1::Body& p, const std::string& path, SceneBody* body) {
+  BodyDef& def = body->def;
+  // Proto3 enums are open: a JSON number outside the enum parses, so it is checked here.
+  if (!v1::BodyType_IsValid(p.type())) {
+    return fail(join(path, "type"), "unknown body type " + std::to_string(p.type()));
+  }
+  def.type = static_cast<BodyType>(p.type());
+  CONVERT_RETURN_IF_ERROR(
+      read_opt_vec(join(path, "position"), p.has_position(), p.position(), &def.position));
+  CONVERT_RETURN_IF_ERROR(check(join(path, "angle"), p.angle(), Range::kFinite));
+  def.angle = p.angle();
+  CONVERT_RETURN_IF_ERROR(read_opt_vec(join(path, "linear_velocity"), p.has_linear_velocity(),
+                                       p.linear_velocity(), &def.linear_velocity));
+  CONVERT_RETURN_IF_ERROR(
+      check(join(path, "angular_velocity"), p.angular_velocity(), Range::kFinite));
+  def.angular_velocity = p.angular_velocity();
+  CONVERT_RETURN_IF_ERROR(
+      check(join(path, "linear_damping"), p.linear_damping(), Range::kNonNegative));
+  def.linear_damping = p.linear_damping();
+  CONVERT_RETURN_IF_ERROR(
+      check(join(path, "angular_damping"), p.angular_damping(), Range::kNonNegative));
+  def.angular_damping = p.angular_damping();
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "gravity_scale"), p.has_gravity_scale(),
+                                   p.gravity_scale(), Range::kFinite, &def.gravity_scale));
+  def.fixed_rotation = p.fixed_rotation();
+  if (p.has_awake()) def.awake = p.awake();
+  if (p.has_enable_sleep()) def.enable_sleep = p.enable_sleep();
+  def.user_data = p.user_data();
+
+  body->shapes.resize(p.shapes_size());
+  for (int i = 0; i < p.shapes_size(); ++i) {
+    CONVERT_RETURN_IF_ERROR(
+        shape_from_proto(p.shapes(i), indexed(path, "shapes", i), &body->shapes[i]));
+  }
+  body->chains.resize(p.chains_size());
+  for (int i = 0; i < p.chains_size(); ++i) {
+    CONVERT_RETURN_IF_ERROR(
+        chain_from_proto(p.chains(i), indexed(path, "chains", i), &body->chains[i]));
+  }
+  return Status::ok_status();
+}
+
+Status pyramid_from_proto(const v1::Builder::Pyramid& p, const std::string& path, SceneDef* scene) {
+  scenes::PyramidOptions o;
+  if (p.has_base()) {
+    CONVERT_RETURN_IF_ERROR(check_int(join(path, "base"), p.base(), 1, kMaxPyramidBase));
+    o.base = p.base();
+  }
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "box_size"), p.has_box_size(), p.box_size(),
+                                   Range::kPositive, &o.box_size));
+  CONVERT_RETURN_IF_ERROR(
+      read_opt(join(path, "spacing"), p.has_spacing(), p.spacing(), Range::kFinite, &o.spacing));
+  // Checked after both are known: the default spacing may meet an explicit box_size.
+  if (!(o.spacing >= o.box_size)) {
+    return fail(join(path, "spacing"),
+                "must be >= box_size " + fmt(o.box_size) + " (got " + fmt(o.spacing) + ")");
+  }
+  CONVERT_RETURN_IF_ERROR(
+      read_opt_vec(join(path, "origin"), p.has_origin(), p.origin(), &o.origin));
+  CONVERT_RETURN_IF_ERROR(
+      read_opt(join(path, "density"), p.has_density(), p.density(), Range::kPositive, &o.density));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "friction"), p.has_friction(), p.friction(),
+                                   Range::kNonNegative, &o.friction));
+  if (p.has_top_density()) {
+    const double top = p.top_density();
+    if (!is_finite(top) || top == 0.0) {
+      return fail(join(path, "top_density"),
+                  "must be > 0, or < 0 to use density (got " + fmt(top) + ")");
+    }
+    o.top_density = top;
+  }
+  scenes::add_pyramid(scene, o);
+  return Status::ok_status();
+}
+
+Status stack_from_proto(const v1::Builder::Stack& p, const std::string& path, SceneDef* scene) {
+  scenes::StackOptions o;
+  if (p.has_count()) {
+    CONVERT_RETURN_IF_ERROR(check_int(join(path, "count"), p.count(), 1, kMaxStackCount));
+    o.count = p.count();
+  }
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "box_size"), p.has_box_size(), p.box_size(),
+                                   Range::kPositive, &o.box_size));
+  CONVERT_RETURN_IF_ERROR(
+      read_opt(join(path, "offset"), p.has_offset(), p.offset(), Range::kFinite, &o.offset));
+  CONVERT_RETURN_IF_ERROR(
+      read_opt_vec(join(path, "origin"), p.has_origin(), p.origin(), &o.origin));
+  CONVERT_RETURN_IF_ERROR(
+      read_opt(join(path, "density"), p.has_density(), p.density(), Range::kPositive, &o.density));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "friction"), p.has_friction(), p.friction(),
+                                   Range::kNonNegative, &o.friction));
+  scenes::add_stack(scene, o);
+  return Status::ok_status();
+}
+
+Status ground_from_proto(const v1::Builder::Ground& p, const std::string& path, SceneDef* scene) {
+  CONVERT_RETURN_IF_ERROR(check(join(path, "half_width"), p.half_width(), Range::kPositive));
+  CONVERT_RETURN_IF_ERROR(check(join(path, "top"), p.top(), Range::kFinite));
+  double friction = 0.6;  // add_ground's default
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "friction"), p.has_friction(), p.friction(),
+                                   Range::kNonNegative, &friction));
+  scenes::add_ground(scene, p.half_width(), p.top(), friction);
+  return Status::ok_status();
+}
+
+Status builder_from_proto(const v1::Builder& p, const std::string& path, SceneDef* scene) {
+  switch (p.kind_case()) {
+    case v1::Builder::kPyramid:
+      return pyramid_from_proto(p.pyramid(), join(path, "pyramid"), scene);
+    case v1::Builder::kStack:
+      return stack_from_proto(p.stack(), join(path, "stack"), scene);
+    case v1::Builder::kGround:
+      return ground_from_proto(p.ground(), join(path, "ground"), scene);
+    case v1::Builder::KIND_NOT_SET:
+      break;
+  }
+  return fail(path, "no builder (set one of pyramid, stack, ground)");
+}
+
+// --- Engine to proto ---------------------------------------------------------------------------
+
+// Bit equality: -0.0 differs from 0.0 and NaN equals itself, so "same as the default" never
+// loses a bit.
+bool same(double a, double b) {
+  return std::bit_cast<uint64_t>(a) == std::bit_cast<uint64_t>(b);
+}
+bool same(const Vec2& a, const Vec2& b) {
+  return same(a.x(), b.x()) && same(a.y(), b.y());
+}
+
+void vec_to_proto(const Vec2& v, v1::Vec2* out) {
+  out->set_x(v.x());
+  out->set_y(v.y());
+}
+
+bool same_polygon(const Polygon& a, const Polygon& b) {
+  if (a.count != b.count || !same(a.radius, b.radius) || !same(a.centroid, b.centroid)) {
+    return false;
+  }
+  for (int i = 0; i < a.count; ++i) {
+    if (!same(a.vertices[i], b.vertices[i]) || !same(a.normals[i], b.normals[i])) return false;
+  }
+  return true;
+}
+
+// Writes `p` as a Box when box_from_proto would rebuild exactly the same bits. Only unturned
+// boxes are tried: a turned box's angle cannot be recovered bit-exactly from its vertices.
+bool box_to_proto(const Polygon& p, v1::Box* out) {
+  if (p.count != 4) return false;
+  double min_x = p.vertices[0].x(), max_x = min_x;
+  double min_y = p.vertices[0].y(), max_y = min_y;
+  for (int i = 1; i < 4; ++i) {
+    min_x = std::min(min_x, p.vertices[i].x());
+    max_x = std::max(max_x, p.vertices[i].x());
+    min_y = std::min(min_y, p.vertices[i].y());
+    max_y = std::max(max_y, p.vertices[i].y());
+  }
+  const Vec2 c = p.centroid;
+  // Candidate half sizes: exact for a centred box, and the ways rounding can go for an
+  // offset one. Each candidate is verified by rebuilding it.
+  const double hxs[] = {max_x - c.x(), c.x() - min_x, 0.5 * (max_x - min_x)};
+  const double hys[] = {max_y - c.y(), c.y() - min_y, 0.5 * (max_y - min_y)};
+  for (double hx : hxs) {
+    for (double hy : hys) {
+      if (!(hx > 0.0 && hy > 0.0)) continue;
+      const bool centred = c == Vec2::Zero();
+      Polygon candidate = centred ? make_box(hx, hy) : make_offset_box(hx, hy, c, 0.0);
+      candidate.radius = p.radius;
+      if (!same_polygon(candidate, p)) continue;
+      out->set_half_width(hx);
+      out->set_half_height(hy);
+      if (!centred) vec_to_proto(c, out->mutable_center());
+      out->set_radius(p.radius);
+      return true;
+    }
+  }
+  return false;
+}
+
+void geometry_to_proto(const Geometry& g, v1::Shape* out) {
+  if (const auto* c = std::get_if<Circle>(&g)) {
+    v1::Circle* m = out->mutable_circle();
+    if (!same(c->center, Circle{}.center)) vec_to_proto(c->center, m->mutable_center());
+    m->set_radius(c->radius);
+  } else if (const auto* cap = std::get_if<Capsule>(&g)) {
+    v1::Capsule* m = out->mutable_capsule();
+    vec_to_proto(cap->center1, m->mutable_center1());
+    vec_to_proto(cap->center2, m->mutable_center2());
+    m->set_radius(cap->radius);
+  } else if (const auto* s = std::get_if<Segment>(&g)) {
+    v1::Segment* m = out->mutable_segment();
+    vec_to_proto(s->point1, m->mutable_point1());
+    vec_to_proto(s->point2, m->mutable_point2());
+  } else if (const auto* p = std::get_if<Polygon>(&g)) {
+    v1::Box box;
+    if (box_to_proto(*p, &box)) {
+      *out->mutable_box() = std::move(box);
+      return;
+    }
+    v1::Polygon* m = out->mutable_polygon();
+    for (int i = 0; i < p->count; ++i) vec_to_proto(p->vertices[i], m->add_vertices());
+    m->set_radius(p->radius);
+  }
+}
+
+// Writes only the fields that differ from the default, keeping exported files short.
+void filter_to_proto(const Filter& f, v1::Filter* out) {
+  const Filter d;
+  if (f.category_bits != d.category_bits) out->set_category_bits(f.category_bits);
+  if (f.mask_bits != d.mask_bits) out->set_mask_bits(f.mask_bits);
+  out->set_group_index(f.group_index);
+}
+
+bool is_default_filter(const Filter& f) {
+  const Filter d;
+  return f.category_bits == d.category_bits && f.mask_bits == d.mask_bits &&
+         f.group_index == d.group_index;
+}
+
+void shape_to_proto(const ShapeDef& s, v1::Shape* out) {
+  const ShapeDef d;
+  geometry_to_proto(s.geometry, out);
+  if (!same(s.density, d.density)) out->set_density(s.density);
+  if (!same(s.friction, d.friction)) out->set_friction(s.friction);
+  if (!same(s.restitution, d.restitution)) out->set_restitution(s.restitution);
+  if (!is_default_filter(s.filter)) filter_to_proto(s.filter, out->mutable_filter());
+  out->set_is_sensor(s.is_sensor);
+  out->set_user_data(s.user_data);
+}
+
+void chain_to_proto(const ChainDef& c, v1::Chain* out) {
+  const ChainDef d;
+  for (const Vec2& p : c.points) vec_to_proto(p, out->add_points());
+  out->set_loop(c.loop);
+  if (!same(c.friction, d.friction)) out->set_friction(c.friction);
+  if (!same(c.restitution, d.restitution)) out->set_restitution(c.restitution);
+  if (!is_default_filter(c.filter)) filter_to_proto(c.filter, out->mutable_filter());
+  out->set_user_data(c.user_data);
+}
+
+void body_to_proto(const SceneBody& b, v1::Body* out) {
+  const BodyDef d;
+  const BodyDef& def = b.def;
+  out->set_type(static_cast<v1::BodyType>(def.type));
+  if (!same(def.position, d.position)) vec_to_proto(def.position, out->mutable_position());
+  out->set_angle(def.angle);
+  if (!same(def.linear_velocity, d.linear_velocity)) {
+    vec_to_proto(def.linear_velocity, out->mutable_linear_velocity());
+  }
+  out->set_angular_velocity(def.angular_velocity);
+  out->set_linear_damping(def.linear_damping);
+  out->set_angular_damping(def.angular_damping);
+  if (!same(def.gravity_scale, d.gravity_scale)) out->set_gravity_scale(def.gravity_scale);
+  out->set_fixed_rotation(def.fixed_rotation);
+  if (def.awake != d.awake) out->set_awake(def.awake);
+  if (def.enable_sleep != d.enable_sleep) out->set_enable_sleep(def.enable_sleep);
+  out->set_user_data(def.user_data);
+  for (const ShapeDef& s : b.shapes) shape_to_proto(s, out->add_shapes());
+  for (const ChainDef& c : b.chains) chain_to_proto(c, out->add_chains());
+}
+
+// Every field written: an exported scene does not depend on today's defaults.
+void settings_to_proto(const WorldSettings& s, v1::WorldSettings* out) {
+  vec_to_proto(s.gravity, out->mutable_gravity());
+  out->set_dt(s.dt);
+  out->set_velocity_iterations(s.velocity_iterations);
+  out->set_position_iterations(s.position_iterations);
+  out->set_split_impulses(s.split_impulses);
+  out->set_baumgarte(s.baumgarte);
+  out->set_linear_slop(s.linear_slop);
+  out->set_max_correction_speed(s.max_correction_speed);
+  out->set_restitution_threshold(s.restitution_threshold);
+  out->set_early_exit_tolerance(s.early_exit_tolerance);
+  out->set_warm_starting(s.warm_starting);
+  out->set_block_solver(s.block_solver);
+  out->set_speculative_distance(s.speculative_distance);
+  out->set_aabb_margin(s.aabb_margin);
+  out->set_max_linear_speed(s.max_linear_speed);
+  out->set_enable_sleep(s.enable_sleep);
+  out->set_time_to_sleep(s.time_to_sleep);
+  out->set_linear_sleep_tolerance(s.linear_sleep_tolerance);
+  out->set_angular_sleep_tolerance(s.angular_sleep_tolerance);
+}
+
+// --- JSON ----------------------------------------------------------------------------------------
+
+// Protobuf's parser says "(bodies[0].position) z: Cannot find field." and
+// "(bodies[0].type): invalid value ..."; this turns those into the "path: problem" form used
+// everywhere else. Messages of any other shape pass through unchanged.
+std::string tidy_json_error(const std::string& message) {
+  std::string path;
+  std::string rest = message;
+  if (!rest.empty() && rest[0] == '(') {
+    size_t close = rest.find(')');
+    if (close == std::string::npos) return message;
+    path = rest.substr(1, close - 1);
+    rest = rest.substr(close + 1);
+    if (rest.rfind(": ", 0) == 0) return path + rest;
+    if (rest.rfind(" ", 0) == 0) rest = rest.substr(1);
+  }
+  constexpr std::string_view kUnknown = ": Cannot find field.";
+  if (rest.size() > kUnknown.size() &&
+      rest.compare(rest.size() - kUnknown.size(), kUnknown.size(), kUnknown) == 0) {
+    std::string field = rest.substr(0, rest.size() - kUnknown.size());
+    return join(path, field) + ": unknown field";
+  }
+  return message;
+}
+
+}  // namespace
+
+Result<SceneDef> scene_from_proto(const v1::Scene& proto) {
+  SceneDef scene;
+  if (!proto.builtin().empty()) {
+    const std::vector<std::string> names = scenes::builtin_names();
+    if (std::find(names.begin(), names.end(), proto.builtin()) == names.end()) {
+      std::string known;
+      for (const std::string& n : names) known += (known.empty() ? "" : ", ") + n;
+      return fail("builtin", "unknown scene \"" + proto.builtin() + "\" (known: " + known + ")");
+    }
+    Result<SceneDef> builtin = scenes::builtin(proto.builtin());
+    if (!builtin.ok()) return builtin.status().with_prefix("builtin: ");
+    scene = std::move(builtin).value();
+  }
+  if (proto.has_settings()) {
+    CONVERT_RETURN_IF_ERROR(settings_from_proto(proto.settings(), "settings", &scene.settings));
+  }
+  for (int i = 0; i < proto.builders_size(); ++i) {
+    CONVERT_RETURN_IF_ERROR(
+        builder_from_proto(proto.builders(i), indexed("", "builders", i), &scene));
+  }
+  scene.bodies.reserve(scene.bodies.size() + proto.bodies_size());
+  for (int i = 0; i < proto.bodies_size(); ++i) {
+    SceneBody body;
+    CONVERT_RETURN_IF_ERROR(body_from_proto(proto.bodies(i), indexed("", "bodies", i), &body));
+    scene.bodies.push_back(std::move(body));
+  }
+  return scene;
+}
+
+v1::Scene scene_to_proto(const SceneDef& scene, std::string_view name) {
+  v1::Scene out;
+  out.set_name(std::string(name));
+  settings_to_proto(scene.settings, out.mutable_settings());
+  for (const SceneBody& b : scene.bodies) body_to_proto(b, out.add_bodies());
+  return out;
+}
+
+Result<SceneDef> parse_scene_json(std::string_view json) {
+  v1::Scene proto;
+  google::protobuf::util::JsonParseOptions options;
+  options.ignore_unknown_fields = false;  // a misspelt field must not silently take a default
+  auto status = google::protobuf::util::JsonStringToMessage(
+      google::protobuf::StringPiece(json.data(), json.size()), &proto, options);
+  if (!status.ok()) {
+    return invalid_argument(tidy_json_error(std::string(status.message())));
+  }
+  return scene_from_proto(proto);
+}
+
+Result<SceneDef> load_scene_json(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    return invalid_argument(path + ": is a directory, not a scene file");
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    const int err = errno;
+    return not_found(path + ": cannot open scene file (" +
+                     std::string(err != 0 ? std::strerror(err) : "unknown error") + ")");
+  }
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) return Status(StatusCode::kDataLoss, path + ": read error");
+  Result<SceneDef> scene = parse_scene_json(text.str());
+  if (!scene.ok()) return scene.status().with_prefix(path + ": ");
+  return scene;
+}
+
+std::string scene_to_json(const SceneDef& scene, std::string_view name) {
+  google::protobuf::util::JsonPrintOptions options;
+  options.add_whitespace = true;
+  std::string out;
+  // Printing a message we just built cannot fail.
+  (void)google::protobuf::util::MessageToJsonString(scene_to_proto(scene, name), &out, options);
+  return out;
+}
+
+#undef CONVERT_RETURN_IF_ERROR
+
+}  // namespace fulcrum

@@ -1,0 +1,600 @@
+// Scene conversion: proto <-> engine definitions and the JSON scene files.
+#include "scene_convert.h"
+
+#include <gtest/gtest.h>
+
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "fulcrum/geometry.h"
+#include "fulcrum/scene.h"
+#include "fulcrum/scenes.h"
+
+namespace fulcrum {
+namespace {
+
+// --- Bitwise comparison of scenes: the first difference, as a path, or "" --------------------
+
+bool same(double a, double b) {
+  return std::bit_cast<uint64_t>(a) == std::bit_cast<uint64_t>(b);
+}
+
+std::string diff_double(const std::string& path, double a, double b) {
+  if (same(a, b)) return "";
+  std::ostringstream s;
+  s.precision(17);
+  s << path << ": " << a << " vs " << b;
+  return s.str();
+}
+
+std::string diff_vec(const std::string& path, const Vec2& a, const Vec2& b) {
+  std::string d = diff_double(path + ".x", a.x(), b.x());
+  return d.empty() ? diff_double(path + ".y", a.y(), b.y()) : d;
+}
+
+template <typename T>
+std::string diff_value(const std::string& path, const T& a, const T& b) {
+  if (a == b) return "";
+  return path + ": " + std::to_string(a) + " vs " + std::to_string(b);
+}
+
+#define RETURN_IF_DIFF(expr)    \
+  do {                          \
+    std::string d_ = (expr);    \
+    if (!d_.empty()) return d_; \
+  } while (false)
+
+std::string diff_filter(const std::string& p, const Filter& a, const Filter& b) {
+  RETURN_IF_DIFF(diff_value(p + ".category_bits", a.category_bits, b.category_bits));
+  RETURN_IF_DIFF(diff_value(p + ".mask_bits", a.mask_bits, b.mask_bits));
+  return diff_value(p + ".group_index", a.group_index, b.group_index);
+}
+
+std::string diff_geometry(const std::string& p, const Geometry& a, const Geometry& b) {
+  RETURN_IF_DIFF(diff_value(p + ".kind", a.index(), b.index()));
+  if (const auto* ca = std::get_if<Circle>(&a)) {
+    const auto& cb = std::get<Circle>(b);
+    RETURN_IF_DIFF(diff_vec(p + ".center", ca->center, cb.center));
+    return diff_double(p + ".radius", ca->radius, cb.radius);
+  }
+  if (const auto* ca = std::get_if<Capsule>(&a)) {
+    const auto& cb = std::get<Capsule>(b);
+    RETURN_IF_DIFF(diff_vec(p + ".center1", ca->center1, cb.center1));
+    RETURN_IF_DIFF(diff_vec(p + ".center2", ca->center2, cb.center2));
+    return diff_double(p + ".radius", ca->radius, cb.radius);
+  }
+  if (const auto* sa = std::get_if<Segment>(&a)) {
+    const auto& sb = std::get<Segment>(b);
+    RETURN_IF_DIFF(diff_vec(p + ".point1", sa->point1, sb.point1));
+    return diff_vec(p + ".point2", sa->point2, sb.point2);
+  }
+  const auto& pa = std::get<Polygon>(a);
+  const auto& pb = std::get<Polygon>(b);
+  RETURN_IF_DIFF(diff_value(p + ".count", pa.count, pb.count));
+  for (int i = 0; i < pa.count; ++i) {
+    RETURN_IF_DIFF(
+        diff_vec(p + ".vertices[" + std::to_string(i) + "]", pa.vertices[i], pb.vertices[i]));
+    RETURN_IF_DIFF(
+        diff_vec(p + ".normals[" + std::to_string(i) + "]", pa.normals[i], pb.normals[i]));
+  }
+  RETURN_IF_DIFF(diff_vec(p + ".centroid", pa.centroid, pb.centroid));
+  return diff_double(p + ".radius", pa.radius, pb.radius);
+}
+
+std::string diff_settings(const WorldSettings& a, const WorldSettings& b) {
+  const std::string p = "settings";
+  RETURN_IF_DIFF(diff_vec(p + ".gravity", a.gravity, b.gravity));
+  RETURN_IF_DIFF(diff_double(p + ".dt", a.dt, b.dt));
+  RETURN_IF_DIFF(
+      diff_value(p + ".velocity_iterations", a.velocity_iterations, b.velocity_iterations));
+  RETURN_IF_DIFF(
+      diff_value(p + ".position_iterations", a.position_iterations, b.position_iterations));
+  RETURN_IF_DIFF(diff_value(p + ".split_impulses", a.split_impulses, b.split_impulses));
+  RETURN_IF_DIFF(diff_double(p + ".baumgarte", a.baumgarte, b.baumgarte));
+  RETURN_IF_DIFF(diff_double(p + ".linear_slop", a.linear_slop, b.linear_slop));
+  RETURN_IF_DIFF(
+      diff_double(p + ".max_correction_speed", a.max_correction_speed, b.max_correction_speed));
+  RETURN_IF_DIFF(
+      diff_double(p + ".restitution_threshold", a.restitution_threshold, b.restitution_threshold));
+  RETURN_IF_DIFF(
+      diff_double(p + ".early_exit_tolerance", a.early_exit_tolerance, b.early_exit_tolerance));
+  RETURN_IF_DIFF(diff_value(p + ".warm_starting", a.warm_starting, b.warm_starting));
+  RETURN_IF_DIFF(diff_value(p + ".block_solver", a.block_solver, b.block_solver));
+  RETURN_IF_DIFF(
+      diff_double(p + ".speculative_distance", a.speculative_distance, b.speculative_distance));
+  RETURN_IF_DIFF(diff_double(p + ".aabb_margin", a.aabb_margin, b.aabb_margin));
+  RETURN_IF_DIFF(diff_double(p + ".max_linear_speed", a.max_linear_speed, b.max_linear_speed));
+  RETURN_IF_DIFF(diff_value(p + ".enable_sleep", a.enable_sleep, b.enable_sleep));
+  RETURN_IF_DIFF(diff_double(p + ".time_to_sleep", a.time_to_sleep, b.time_to_sleep));
+  RETURN_IF_DIFF(diff_double(p + ".linear_sleep_tolerance", a.linear_sleep_tolerance,
+                             b.linear_sleep_tolerance));
+  return diff_double(p + ".angular_sleep_tolerance", a.angular_sleep_tolerance,
+                     b.angular_sleep_tolerance);
+}
+
+std::string diff_body(const std::string& p, const SceneBody& a, const SceneBody& b) {
+  const BodyDef& x = a.def;
+  const BodyDef& y = b.def;
+  RETURN_IF_DIFF(diff_value(p + ".type", static_cast<int>(x.type), static_cast<int>(y.type)));
+  RETURN_IF_DIFF(diff_vec(p + ".position", x.position, y.position));
+  RETURN_IF_DIFF(diff_double(p + ".angle", x.angle, y.angle));
+  RETURN_IF_DIFF(diff_vec(p + ".linear_velocity", x.linear_velocity, y.linear_velocity));
+  RETURN_IF_DIFF(diff_double(p + ".angular_velocity", x.angular_velocity, y.angular_velocity));
+  RETURN_IF_DIFF(diff_double(p + ".linear_damping", x.linear_damping, y.linear_damping));
+  RETURN_IF_DIFF(diff_double(p + ".angular_damping", x.angular_damping, y.angular_damping));
+  RETURN_IF_DIFF(diff_double(p + ".gravity_scale", x.gravity_scale, y.gravity_scale));
+  RETURN_IF_DIFF(diff_value(p + ".fixed_rotation", x.fixed_rotation, y.fixed_rotation));
+  RETURN_IF_DIFF(diff_value(p + ".awake", x.awake, y.awake));
+  RETURN_IF_DIFF(diff_value(p + ".enable_sleep", x.enable_sleep, y.enable_sleep));
+  RETURN_IF_DIFF(diff_value(p + ".user_data", x.user_data, y.user_data));
+  RETURN_IF_DIFF(diff_value(p + ".shapes.size", a.shapes.size(), b.shapes.size()));
+  for (size_t i = 0; i < a.shapes.size(); ++i) {
+    const std::string sp = p + ".shapes[" + std::to_string(i) + "]";
+    const ShapeDef& s = a.shapes[i];
+    const ShapeDef& t = b.shapes[i];
+    RETURN_IF_DIFF(diff_geometry(sp + ".geometry", s.geometry, t.geometry));
+    RETURN_IF_DIFF(diff_double(sp + ".density", s.density, t.density));
+    RETURN_IF_DIFF(diff_double(sp + ".friction", s.friction, t.friction));
+    RETURN_IF_DIFF(diff_double(sp + ".restitution", s.restitution, t.restitution));
+    RETURN_IF_DIFF(diff_filter(sp + ".filter", s.filter, t.filter));
+    RETURN_IF_DIFF(diff_value(sp + ".is_sensor", s.is_sensor, t.is_sensor));
+    RETURN_IF_DIFF(diff_value(sp + ".user_data", s.user_data, t.user_data));
+  }
+  RETURN_IF_DIFF(diff_value(p + ".chains.size", a.chains.size(), b.chains.size()));
+  for (size_t i = 0; i < a.chains.size(); ++i) {
+    const std::string cp = p + ".chains[" + std::to_string(i) + "]";
+    const ChainDef& c = a.chains[i];
+    const ChainDef& d = b.chains[i];
+    RETURN_IF_DIFF(diff_value(cp + ".points.size", c.points.size(), d.points.size()));
+    for (size_t j = 0; j < c.points.size(); ++j) {
+      RETURN_IF_DIFF(diff_vec(cp + ".points[" + std::to_string(j) + "]", c.points[j], d.points[j]));
+    }
+    RETURN_IF_DIFF(diff_value(cp + ".loop", c.loop, d.loop));
+    RETURN_IF_DIFF(diff_double(cp + ".friction", c.friction, d.friction));
+    RETURN_IF_DIFF(diff_double(cp + ".restitution", c.restitution, d.restitution));
+    RETURN_IF_DIFF(diff_filter(cp + ".filter", c.filter, d.filter));
+    RETURN_IF_DIFF(diff_value(cp + ".user_data", c.user_data, d.user_data));
+  }
+  return "";
+}
+
+std::string diff_scene(const SceneDef& a, const SceneDef& b) {
+  RETURN_IF_DIFF(diff_settings(a.settings, b.settings));
+  RETURN_IF_DIFF(diff_value("bodies.size", a.bodies.size(), b.bodies.size()));
+  for (size_t i = 0; i < a.bodies.size(); ++i) {
+    RETURN_IF_DIFF(diff_body("bodies[" + std::to_string(i) + "]", a.bodies[i], b.bodies[i]));
+  }
+  return "";
+}
+
+#undef RETURN_IF_DIFF
+
+// scene_to_json, then parse_scene_json: must reproduce the scene bit for bit.
+void ExpectJsonRoundTrip(const SceneDef& scene) {
+  const std::string json = scene_to_json(scene);
+  Result<SceneDef> back = parse_scene_json(json);
+  ASSERT_TRUE(back.ok()) << back.status().to_string() << "\n" << json.substr(0, 4000);
+  EXPECT_EQ(diff_scene(scene, *back), "");
+}
+
+ChainDef OpenChain(std::vector<Vec2> points) {
+  ChainDef chain;
+  chain.points = std::move(points);
+  return chain;
+}
+
+Polygon MakePolygon(std::vector<Vec2> vertices, double radius = 0.0) {
+  Polygon p;
+  Status s = make_polygon(vertices, radius, &p);
+  EXPECT_TRUE(s.ok()) << s.to_string();
+  return p;
+}
+
+// A scene that touches every field with values that are hard to print exactly.
+SceneDef AwkwardScene() {
+  SceneDef scene;
+  WorldSettings& s = scene.settings;
+  s.gravity = Vec2(0.1, -9.80665);
+  s.dt = 1.0 / 240.0;
+  s.velocity_iterations = 13;
+  s.position_iterations = 0;
+  s.split_impulses = false;
+  s.baumgarte = 1.0 / 3.0;
+  s.linear_slop = 5e-324;  // the smallest denormal
+  s.max_correction_speed = 1.7976931348623157e308;
+  s.restitution_threshold = 0.0;
+  s.early_exit_tolerance = 1e-300;
+  s.warm_starting = false;
+  s.block_solver = false;
+  s.speculative_distance = 0.030000000000000002;
+  s.aabb_margin = 0.0;
+  s.max_linear_speed = 123.456;
+  s.enable_sleep = false;
+  s.time_to_sleep = 2.0 / 3.0;
+  s.linear_sleep_tolerance = 0.0;
+  s.angular_sleep_tolerance = std::nextafter(0.035, 1.0);
+
+  // Static terrain: a box, a segment and two chains.
+  SceneBody ground;
+  ground.def.position = Vec2(-0.0, -1.0);  // negative zero must survive
+  ground.def.user_data = std::numeric_limits<uint64_t>::max();
+  ShapeDef box;
+  box.geometry = make_box(50.0, 1.0);
+  box.friction = 0.7;
+  ground.shapes.push_back(box);
+  ShapeDef segment;
+  segment.geometry = Segment{Vec2(-3.0, 0.1), Vec2(3.0, 0.2)};
+  segment.filter = Filter{0x8000000000000000ull, 0x5555, -7};
+  ground.shapes.push_back(segment);
+  ChainDef open;
+  open.points = {Vec2(-10, 0), Vec2(-5, 1e-9), Vec2(0, 0.5)};
+  open.restitution = 0.25;
+  open.user_data = 42;
+  ground.chains.push_back(open);
+  ChainDef loop;
+  loop.points = {Vec2(20, 0), Vec2(22, 0), Vec2(21, 1.7320508075688772)};
+  loop.loop = true;
+  loop.friction = 0.0;
+  loop.filter.group_index = 3;
+  ground.chains.push_back(loop);
+  scene.bodies.push_back(ground);
+
+  // A dynamic body with every kind of solid shape.
+  SceneBody body;
+  body.def.type = BodyType::kDynamic;
+  body.def.position = Vec2(1.0 / 3.0, 10.1);
+  body.def.angle = -3.141592653589793;
+  body.def.linear_velocity = Vec2(1e-17, -2.5);
+  body.def.angular_velocity = 0.7;
+  body.def.linear_damping = 0.05;
+  body.def.angular_damping = 0.5;
+  body.def.gravity_scale = -0.5;
+  body.def.fixed_rotation = true;
+  body.def.awake = false;
+  body.def.enable_sleep = false;
+  ShapeDef circle;
+  circle.geometry = Circle{Vec2(0.25, -0.125), 0.3};
+  circle.density = 0.0;
+  circle.is_sensor = true;
+  circle.user_data = 7;
+  body.shapes.push_back(circle);
+  ShapeDef capsule;
+  capsule.geometry = Capsule{Vec2(-0.2, 0.1), Vec2(0.4, 0.3), 0.15};
+  capsule.density = 2.5;
+  capsule.restitution = 1.0;
+  body.shapes.push_back(capsule);
+  ShapeDef tri;
+  tri.geometry = MakePolygon({Vec2(0, 0), Vec2(1, 0.1), Vec2(0.3, 0.9)}, 0.01);
+  body.shapes.push_back(tri);
+  ShapeDef offset_box;
+  offset_box.geometry = make_offset_box(0.1, 0.2, Vec2(0.3, -0.7), 0.0);
+  body.shapes.push_back(offset_box);
+  ShapeDef rounded_box;
+  Polygon rounded = make_box(0.3, 0.1);
+  rounded.radius = 0.05;
+  rounded_box.geometry = rounded;
+  body.shapes.push_back(rounded_box);
+  scene.bodies.push_back(body);
+
+  // A particle and a kinematic body.
+  SceneBody particle;
+  particle.def.type = BodyType::kParticle;
+  particle.def.position = Vec2(2, 3);
+  ShapeDef dot;
+  dot.geometry = Circle{Vec2::Zero(), 0.1};
+  particle.shapes.push_back(dot);
+  scene.bodies.push_back(particle);
+  SceneBody kinematic;
+  kinematic.def.type = BodyType::kKinematic;
+  kinematic.def.angular_velocity = 0.4363323129985824;
+  ShapeDef plate;
+  plate.geometry = make_box(2.0, 0.25);
+  kinematic.shapes.push_back(plate);
+  scene.bodies.push_back(kinematic);
+  return scene;
+}
+
+// --- Round trips -----------------------------------------------------------------------------
+
+TEST(SceneJson, RoundTripIsExact) {
+  ExpectJsonRoundTrip(AwkwardScene());
+}
+
+TEST(SceneJson, RoundTripOfDefaults) {
+  SceneDef scene;
+  scene.bodies.emplace_back();
+  scene.bodies.back().shapes.emplace_back();
+  scene.bodies.back().chains.push_back(OpenChain({Vec2(0, 0), Vec2(1, 0)}));
+  ExpectJsonRoundTrip(scene);
+  ExpectJsonRoundTrip(SceneDef{});
+}
+
+TEST(SceneJson, ExportedBoxesStayBoxes) {
+  SceneDef scene = AwkwardScene();
+  v1::Scene proto = scene_to_proto(scene, "awkward");
+  EXPECT_EQ(proto.name(), "awkward");
+  EXPECT_EQ(proto.builders_size(), 0);
+  EXPECT_TRUE(proto.builtin().empty());
+  ASSERT_EQ(proto.bodies_size(), 4);
+  EXPECT_TRUE(proto.bodies(0).shapes(0).has_box());
+  EXPECT_EQ(proto.bodies(0).shapes(0).box().half_width(), 50.0);
+  EXPECT_TRUE(proto.bodies(1).shapes(2).has_polygon());  // the triangle
+  EXPECT_TRUE(proto.bodies(1).shapes(3).has_box());      // offset, unturned
+  EXPECT_TRUE(proto.bodies(1).shapes(4).has_box());      // rounded
+  EXPECT_EQ(proto.bodies(1).shapes(4).box().radius(), 0.05);
+  // Every settings field is written out.
+  EXPECT_TRUE(proto.settings().has_dt());
+  EXPECT_TRUE(proto.settings().has_angular_sleep_tolerance());
+}
+
+// Every builtin scene survives export and re-import bit for bit.
+TEST(SceneJson, BuiltinsRoundTrip) {
+  for (const std::string& name : scenes::builtin_names()) {
+    SCOPED_TRACE(name);
+    Result<SceneDef> scene = scenes::builtin(name);
+    ASSERT_TRUE(scene.ok()) << scene.status().to_string();
+    ExpectJsonRoundTrip(*scene);
+  }
+}
+
+// --- Defaults and assembly order -------------------------------------------------------------
+
+TEST(SceneJson, AbsentFieldsTakeEngineDefaults) {
+  Result<SceneDef> scene = parse_scene_json(R"({
+    "bodies": [{"shapes": [{"circle": {}}], "chains": [{"points": [{}, {"x": 1}]}]}]
+  })");
+  ASSERT_TRUE(scene.ok()) << scene.status().to_string();
+  SceneDef expected;
+  expected.bodies.emplace_back();
+  expected.bodies.back().shapes.emplace_back();  // ShapeDef{} holds a default Circle
+  expected.bodies.back().chains.push_back(OpenChain({Vec2(0, 0), Vec2(1, 0)}));
+  EXPECT_EQ(diff_scene(expected, *scene), "");
+}
+
+TEST(SceneJson, BuiltinThenBuildersThenBodies) {
+  const std::string name = "vertical_stack";
+  Result<SceneDef> builtin = scenes::builtin(name);
+  ASSERT_TRUE(builtin.ok()) << builtin.status().to_string();
+  Result<SceneDef> scene = parse_scene_json(R"({
+    "builtin": "vertical_stack",
+    "settings": {"dt": 0.01, "velocityIterations": 4},
+    "builders": [{"ground": {"halfWidth": 5, "top": -10}}],
+    "bodies": [{"type": "BODY_TYPE_DYNAMIC", "userData": "99",
+                "shapes": [{"circle": {"radius": 0.2}}]}]
+  })");
+  ASSERT_TRUE(scene.ok()) << scene.status().to_string();
+  const size_t n = builtin->bodies.size();
+  ASSERT_EQ(scene->bodies.size(), n + 2);
+  for (size_t i = 0; i < n; ++i) {
+    EXPECT_EQ(diff_body("bodies[" + std::to_string(i) + "]", builtin->bodies[i], scene->bodies[i]),
+              "");
+  }
+  SceneDef ground;
+  scenes::add_ground(&ground, 5.0, -10.0);
+  EXPECT_EQ(diff_body("ground", ground.bodies[0], scene->bodies[n]), "");
+  EXPECT_EQ(scene->bodies[n + 1].def.user_data, 99u);
+  // Given settings override the builtin's; the rest are the builtin's.
+  WorldSettings expected = builtin->settings;
+  expected.dt = 0.01;
+  expected.velocity_iterations = 4;
+  EXPECT_EQ(diff_settings(expected, scene->settings), "");
+}
+
+TEST(SceneJson, BuildersMatchTheBuilderFunctions) {
+  Result<SceneDef> scene = parse_scene_json(R"({"builders": [
+    {"pyramid": {"base": 4, "boxSize": 0.5, "spacing": 0.6, "origin": {"x": 1, "y": 2},
+                 "density": 3, "friction": 0.4, "topDensity": 30}},
+    {"stack": {"count": 3, "boxSize": 2, "offset": -0.1, "density": 0.5, "friction": 0.9}},
+    {"pyramid": {}}
+  ]})");
+  ASSERT_TRUE(scene.ok()) << scene.status().to_string();
+  SceneDef expected;
+  scenes::PyramidOptions p;
+  p.base = 4;
+  p.box_size = 0.5;
+  p.spacing = 0.6;
+  p.origin = Vec2(1, 2);
+  p.density = 3;
+  p.friction = 0.4;
+  p.top_density = 30;
+  scenes::add_pyramid(&expected, p);
+  scenes::StackOptions s;
+  s.count = 3;
+  s.box_size = 2;
+  s.offset = -0.1;
+  s.density = 0.5;
+  s.friction = 0.9;
+  scenes::add_stack(&expected, s);
+  scenes::add_pyramid(&expected, scenes::PyramidOptions{});
+  EXPECT_EQ(diff_scene(expected, *scene), "");
+}
+
+// --- Example scene files ---------------------------------------------------------------------
+
+TEST(SceneFiles, EveryExampleLoadsAndBuilds) {
+  int count = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(FULCRUM_SCENES_DIR)) {
+    if (entry.path().extension() != ".json") continue;
+    SCOPED_TRACE(entry.path().string());
+    ++count;
+    Result<SceneDef> scene = load_scene_json(entry.path().string());
+    ASSERT_TRUE(scene.ok()) << scene.status().to_string();
+    EXPECT_FALSE(scene->bodies.empty());
+    Result<World> world = build_world(*scene);
+    ASSERT_TRUE(world.ok()) << world.status().to_string();
+    EXPECT_EQ(world->body_count(), static_cast<int>(scene->bodies.size()));
+    ExpectJsonRoundTrip(*scene);
+  }
+  EXPECT_GE(count, 3);
+}
+
+TEST(SceneFiles, ExampleContents) {
+  const std::string dir = FULCRUM_SCENES_DIR;
+  Result<SceneDef> pyramid = load_scene_json(dir + "/pyramid.json");
+  ASSERT_TRUE(pyramid.ok()) << pyramid.status().to_string();
+  EXPECT_EQ(pyramid->bodies.size(), 1u + 20u * 21u / 2u);
+  Result<SceneDef> stack = load_scene_json(dir + "/stack.json");
+  ASSERT_TRUE(stack.ok()) << stack.status().to_string();
+  EXPECT_EQ(stack->bodies.size(), 11u);
+  Result<SceneDef> particles = load_scene_json(dir + "/particles.json");
+  ASSERT_TRUE(particles.ok()) << particles.status().to_string();
+  int particle_count = 0;
+  for (const SceneBody& b : particles->bodies) {
+    if (b.def.type != BodyType::kParticle) continue;
+    ++particle_count;
+    ASSERT_EQ(b.shapes.size(), 1u);
+    EXPECT_EQ(geometry_type(b.shapes[0].geometry), ShapeType::kCircle);
+  }
+  EXPECT_EQ(particle_count, 12);
+}
+
+// --- Errors name the field -------------------------------------------------------------------
+
+struct BadInput {
+  const char* label;
+  const char* json;
+  const char* message;  // expected substring of the error message
+};
+
+class SceneJsonErrors : public testing::TestWithParam<BadInput> {};
+
+TEST_P(SceneJsonErrors, NameTheField) {
+  Result<SceneDef> scene = parse_scene_json(GetParam().json);
+  ASSERT_FALSE(scene.ok());
+  EXPECT_EQ(scene.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(scene.status().message().find(GetParam().message), std::string::npos)
+      << "message: " << scene.status().message() << "\nexpected to contain: " << GetParam().message;
+}
+
+const BadInput kBadInputs[] = {
+    {"UnknownTopLevelField", R"({"bodiess": []})", "bodiess: unknown field"},
+    {"UnknownNestedField", R"({"bodies": [{"shapes": [{"circle": {"radius": 1, "centre": {}}}]}]})",
+     "bodies[0].shapes[0].circle.centre: unknown field"},
+    {"NegativeDensity", R"({"bodies": [{"shapes": [{"circle": {}, "density": -1}]}]})",
+     "bodies[0].shapes[0].density: must be >= 0 (got -1)"},
+    {"NaNPosition", R"({"bodies": [{"position": {"x": "NaN"}}]})",
+     "bodies[0].position.x: must be finite (got nan)"},
+    {"NaNDensity", R"({"bodies": [{}, {"shapes": [{"circle": {}, "density": "NaN"}]}]})",
+     "bodies[1].shapes[0].density: must be >= 0 (got nan)"},
+    {"InfiniteFriction", R"({"bodies": [{"shapes": [{"circle": {}, "friction": "Infinity"}]}]})",
+     "bodies[0].shapes[0].friction: must be >= 0 (got inf)"},
+    {"NaNDt", R"({"settings": {"dt": "NaN"}})", "settings.dt: must be > 0 (got nan)"},
+    {"ZeroDt", R"({"settings": {"dt": 0}})", "settings.dt: must be > 0 (got 0)"},
+    {"Baumgarte", R"({"settings": {"baumgarte": 1.5}})",
+     "settings.baumgarte: must be in [0, 1] (got 1.5)"},
+    {"VelocityIterations", R"({"settings": {"velocityIterations": 0}})",
+     "settings.velocity_iterations: must be >= 1 (got 0)"},
+    {"GravityNaN", R"({"settings": {"gravity": {"y": "NaN"}}})",
+     "settings.gravity.y: must be finite"},
+    {"EmptyPolygon", R"({"bodies": [{"shapes": [{"polygon": {}}]}]})",
+     "bodies[0].shapes[0].polygon.vertices: need 3 to 8 vertices (got 0)"},
+    {"TooManyVertices",
+     R"({"bodies": [{"shapes": [{"polygon": {"vertices": [{},{},{},{},{},{},{},{},{}]}}]}]})",
+     "bodies[0].shapes[0].polygon.vertices: need 3 to 8 vertices (got 9)"},
+    {"PolygonVertexNaN",
+     R"({"bodies": [{"shapes": [{"polygon": {"vertices": [{}, {"x": 1}, {"y": "NaN"}]}}]}]})",
+     "bodies[0].shapes[0].polygon.vertices[2].y: must be finite"},
+    {"ClockwisePolygon",
+     R"({"bodies": [{"shapes": [{"polygon": {"vertices": [{}, {"y": 1}, {"x": 1}]}}]}]})",
+     "bodies[0].shapes[0].polygon"},
+    {"BoxHalfWidth",
+     R"({"bodies": [{}, {}, {"shapes": [{"box": {"halfWidth": -1, "halfHeight": 1}}]}]})",
+     "bodies[2].shapes[0].box.half_width: must be > 0 (got -1)"},
+    {"BoxMissingHalfHeight", R"({"bodies": [{"shapes": [{"box": {"halfWidth": 1}}]}]})",
+     "bodies[0].shapes[0].box.half_height: must be > 0 (got 0)"},
+    {"CircleRadius", R"({"bodies": [{"shapes": [{"circle": {"radius": 0}}]}]})",
+     "bodies[0].shapes[0].circle.radius: must be > 0 (got 0)"},
+    {"CapsuleCentres", R"({"bodies": [{"shapes": [{"capsule": {"center1": {}, "center2": {}}}]}]})",
+     "bodies[0].shapes[0].capsule: center1 and center2 must be more than"},
+    {"SegmentPoints",
+     R"({"bodies": [{"shapes": [{"segment": {"point1": {"x": 2}, "point2": {"x": 2}}}]}]})",
+     "bodies[0].shapes[0].segment: point1 and point2"},
+    {"NoGeometry", R"({"bodies": [{"shapes": [{"density": 2}]}]})",
+     "bodies[0].shapes[0]: no geometry"},
+    {"TwoGeometries", R"({"bodies": [{"shapes": [{"circle": {}, "box": {}}]}]})",
+     "bodies[0].shapes[0]"},
+    {"UnknownBodyTypeName", R"({"bodies": [{"type": "BODY_TYPE_GHOST"}]})", "bodies[0].type"},
+    {"UnknownBodyTypeNumber", R"({"bodies": [{"type": 7}]})",
+     "bodies[0].type: unknown body type 7"},
+    {"NegativeDamping", R"({"bodies": [{"linearDamping": -0.1}]})",
+     "bodies[0].linear_damping: must be >= 0 (got -0.1)"},
+    {"ChainTooShort", R"({"bodies": [{"chains": [{"points": [{}]}]}]})",
+     "bodies[0].chains[0].points: need at least 2 points (got 1)"},
+    {"LoopTooShort", R"({"bodies": [{"chains": [{"loop": true, "points": [{}, {"x": 1}]}]}]})",
+     "bodies[0].chains[0].points: need at least 3 points for a loop (got 2)"},
+    {"ChainRepeatedPoint", R"({"bodies": [{"chains": [{"points": [{}, {"x": 1}, {"x": 1}]}]}]})",
+     "bodies[0].chains[0].points[2]: equals the previous point"},
+    {"UnknownBuiltin", R"({"builtin": "no_such_scene"})",
+     "builtin: unknown scene \"no_such_scene\""},
+    {"EmptyBuilder", R"({"builders": [{}]})", "builders[0]: no builder"},
+    {"PyramidBase", R"({"builders": [{"ground": {"halfWidth": 1}}, {"pyramid": {"base": 0}}]})",
+     "builders[1].pyramid.base: must be in [1, 1000] (got 0)"},
+    {"PyramidTooBig", R"({"builders": [{"pyramid": {"base": 100000}}]})",
+     "builders[0].pyramid.base: must be in [1, 1000]"},
+    {"PyramidSpacing", R"({"builders": [{"pyramid": {"boxSize": 2}}]})",
+     "builders[0].pyramid.spacing: must be >= box_size 2 (got 1)"},
+    {"PyramidTopDensity", R"({"builders": [{"pyramid": {"topDensity": 0}}]})",
+     "builders[0].pyramid.top_density"},
+    {"StackCount", R"({"builders": [{"stack": {"count": -1}}]})",
+     "builders[0].stack.count: must be in [1, 10000] (got -1)"},
+    {"GroundHalfWidth", R"({"builders": [{"ground": {}}]})",
+     "builders[0].ground.half_width: must be > 0 (got 0)"},
+    {"WrongType", R"({"bodies": [{"angle": "north"}]})", "bodies[0].angle"},
+    {"FractionalInt", R"({"builders": [{"stack": {"count": 2.5}}]})", "builders[0].stack.count"},
+    {"SyntaxError", R"({"bodies": [)", ""},
+    {"NotAnObject", R"([1, 2])", ""},
+};
+
+INSTANTIATE_TEST_SUITE_P(All, SceneJsonErrors, testing::ValuesIn(kBadInputs),
+                         [](const testing::TestParamInfo<BadInput>& param_info) {
+                           return std::string(param_info.param.label);
+                         });
+
+// --- Files -----------------------------------------------------------------------------------
+
+TEST(SceneFiles, MissingFileIsNotFound) {
+  const std::string path = testing::TempDir() + "/no_such_scene.json";
+  Result<SceneDef> scene = load_scene_json(path);
+  ASSERT_FALSE(scene.ok());
+  EXPECT_EQ(scene.status().code(), StatusCode::kNotFound);
+  EXPECT_NE(scene.status().message().find(path + ": cannot open scene file"), std::string::npos)
+      << scene.status().message();
+}
+
+TEST(SceneFiles, DirectoryIsRefused) {
+  Result<SceneDef> scene = load_scene_json(FULCRUM_SCENES_DIR);
+  ASSERT_FALSE(scene.ok());
+  EXPECT_NE(scene.status().message().find("is a directory"), std::string::npos);
+}
+
+TEST(SceneFiles, ErrorsArePrefixedWithThePath) {
+  const std::string path = std::string(FULCRUM_TEST_DATA_DIR) + "/bad_density.json";
+  Result<SceneDef> scene = load_scene_json(path);
+  ASSERT_FALSE(scene.ok());
+  EXPECT_EQ(scene.status().message(),
+            path + ": bodies[0].shapes[0].density: must be >= 0 (got -1)");
+}
+
+TEST(SceneFiles, SaveAndLoad) {
+  const std::string path = testing::TempDir() + "/scene_convert_test_saved.json";
+  const SceneDef scene = AwkwardScene();
+  {
+    std::ofstream out(path);
+    out << scene_to_json(scene, "saved");
+  }
+  Result<SceneDef> back = load_scene_json(path);
+  ASSERT_TRUE(back.ok()) << back.status().to_string();
+  EXPECT_EQ(diff_scene(scene, *back), "");
+  std::filesystem::remove(path);
+}
+
+}  // namespace
+}  // namespace fulcrum

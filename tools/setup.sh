@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Shared set-up for tools/run.sh and tools/test.sh: installs the Debian 12 packages Fulcrum
+# needs (only those missing; through sudo when not root), then configures and builds into
+# build/. Idempotent: a second run with nothing changed installs nothing and builds nothing.
+set -euo pipefail
+
+FULCRUM_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+FULCRUM_BUILD="${FULCRUM_BUILD:-$FULCRUM_ROOT/build}"
+
+FULCRUM_PACKAGES=(
+  build-essential cmake ninja-build pkg-config clang clang-format
+  libeigen3-dev
+  libprotobuf-dev protobuf-compiler libgrpc++-dev protobuf-compiler-grpc
+  libgtest-dev libgmock-dev libbenchmark-dev
+  libbox2d-dev
+)
+
+fulcrum_install_packages() {
+  local missing=()
+  for p in "${FULCRUM_PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  if [ ${#missing[@]} -eq 0 ]; then return 0; fi
+  echo "fulcrum: installing missing packages: ${missing[*]}"
+  local sudo=""
+  if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+}
+
+fulcrum_build() {
+  if [ ! -f "$FULCRUM_BUILD/build.ninja" ]; then
+    cmake -S "$FULCRUM_ROOT" -B "$FULCRUM_BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+      -DFULCRUM_WERROR=ON
+  fi
+  cmake --build "$FULCRUM_BUILD" -j "$(nproc)"
+}
