@@ -125,8 +125,10 @@ int main(int argc, char** argv) {
   if (csv) {
     std::printf("scene,bodies,steps,ms_per_step,max_penetration_m,moved_over_0.5m,state_hash\n");
   } else {
-    std::printf("| scene | bodies | steps | ms/step (median of %d) | max penetration (m) | moved > 0.5 m | state hash |\n",
-                repeats);
+    std::printf(
+        "| scene | bodies | steps | ms/step (median of %d) | max penetration (m) | moved > 0.5 m | "
+        "state hash |\n",
+        repeats);
     std::printf("|---|---|---|---|---|---|---|\n");
   }
   for (const Entry& e : chosen) {

@@ -89,7 +89,11 @@ std::optional<int64_t> parse_int(std::string_view text, int64_t min, int64_t max
     *error = "expected a whole number, got '" + std::string(text) + "'";
     return std::nullopt;
   }
-  if (ec == std::errc::result_out_of_range || value < min || value > max) {
+  if (ec == std::errc::result_out_of_range) {
+    *error = "number out of range: " + std::string(text);
+    return std::nullopt;
+  }
+  if (value < min || value > max) {
     *error = "must be ";
     if (max == std::numeric_limits<int64_t>::max()) {
       *error += ">= " + std::to_string(min);

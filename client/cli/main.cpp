@@ -21,8 +21,8 @@ constexpr FlagSpec kExportFlags[] = {kSceneFlag, kBuiltinFlag};
 constexpr Command kCommands[] = {
     {"sim", "build a scene, step it N ticks, print the state hash and accuracy figures",
      "(--scene FILE | --builtin NAME) --ticks N [--json]",
-     "Steps the scene on one thread and reports the final tick, the 64-bit state hash, the wall "
-     "time per step and World::metrics() (penetration, energy, momentum, awake bodies, "
+     "Steps the scene on one thread and reports the final tick, the 64-bit state hash, the\n"
+     "wall time per step and World::metrics() (penetration, energy, momentum, awake bodies,\n"
      "contacts).",
      kSimFlags, 0, run_sim},
     {"scenes", "list the built-in scenes", "", "", {}, 0, run_scenes},

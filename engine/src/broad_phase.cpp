@@ -29,14 +29,20 @@ void WorldImpl::destroy_proxy(int si) {
 }
 
 // Re-fits the fat boxes of a body's shapes that left them. A shape that stays inside its fat
-// box costs one box computation and no tree work.
+// box costs one box computation and no tree work. The new fat box also reaches as far as the
+// body will travel in the next tick, so that fast bodies meet what lies ahead of them before
+// they get there.
 void WorldImpl::synchronize_shapes(int bi) {
   const Body& b = bodies[bi];
+  Vec2 travel = settings.dt * b.v;
   for (int si : b.shapes) {
     Shape& s = shapes[si];
     AABB box = compute_aabb(s.geometry, b.xf);
     if (tree.fat_aabb(s.proxy).contains(box)) continue;
-    tree.move_proxy(s.proxy, box.fattened(settings.aabb_margin));
+    AABB fat = box.fattened(settings.aabb_margin);
+    fat.lower += travel.cwiseMin(Vec2::Zero());
+    fat.upper += travel.cwiseMax(Vec2::Zero());
+    tree.move_proxy(s.proxy, fat);
     if (!s.in_move_buffer) {
       s.in_move_buffer = true;
       move_buffer.push_back(si);

@@ -92,8 +92,8 @@ void WorldImpl::destroy_contact(int ci, bool report_end) {
   if (report_end && c.touching) {
     if (c.sensor) {
       bool a_sensor = shapes[c.shape_a].is_sensor;
-      events.sensor_end.push_back({shape_id(a_sensor ? c.shape_a : c.shape_b),
-                                   shape_id(a_sensor ? c.shape_b : c.shape_a)});
+      events.sensor_end.push_back(
+          {shape_id(a_sensor ? c.shape_a : c.shape_b), shape_id(a_sensor ? c.shape_b : c.shape_a)});
     } else {
       events.contact_end.push_back({shape_id(c.shape_a), shape_id(c.shape_b)});
     }
@@ -138,7 +138,10 @@ void WorldImpl::collide() {
     const Body& ba = bodies[c.body_a];
     const Body& bb = bodies[c.body_b];
     Manifold old = c.manifold;
-    c.manifold = fulcrum::collide(sa.geometry, ba.xf, sb.geometry, bb.xf, c.sensor ? 0.0 : speculative);
+    // Points are kept as far out as the bodies can close in one tick, so that the solver sees
+    // a fast body's contact before it arrives (speculative contact).
+    double reach = speculative + settings.dt * length(bb.v - ba.v);
+    c.manifold = fulcrum::collide(sa.geometry, ba.xf, sb.geometry, bb.xf, c.sensor ? 0.0 : reach);
 
     // Warm starting: a point that keeps its feature id keeps its accumulated impulses.
     for (int i = 0; i < c.manifold.count; ++i) {

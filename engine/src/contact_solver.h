@@ -8,28 +8,41 @@
 
 namespace fulcrum {
 
-// What the iterations touch per body: 64 bytes.
+// What the iterations touch per body.
 struct SolverBody {
-  Vec2 v = Vec2::Zero();   // velocity of the centre of mass
+  Vec2 v = Vec2::Zero();  // velocity of the centre of mass
   double w = 0.0;
   double inv_mass = 0.0;
+  Vec2 dp = Vec2::Zero();  // displacement of the centre of mass since the tick began
+  Rot dq;                  // rotation since the tick began
   Vec2 pv = Vec2::Zero();  // pseudo velocity (split impulses): moves positions only
   double pw = 0.0;
   double inv_inertia = 0.0;
 };
 
+// Soft constraint coefficients for one substep (Catto, "Solver2D", 2024): a spring of
+// stiffness omega = 2 pi hertz with damping ratio zeta, made implicit. The row impulse becomes
+//   lambda = -m_c mass_scale (J v + bias_rate C) - impulse_scale * accumulated.
+// Rigid rows have bias_rate 0, mass_scale 1, impulse_scale 0.
+struct Softness {
+  double bias_rate = 0.0;
+  double mass_scale = 1.0;
+  double impulse_scale = 0.0;
+};
+
 struct ContactPointRow {
-  Vec2 ra = Vec2::Zero();  // contact point relative to body A's centre of mass
+  Vec2 ra = Vec2::Zero();  // contact point relative to body A's centre of mass (tick start)
   Vec2 rb = Vec2::Zero();
-  double normal_mass = 0.0;   // 1 / (J M^-1 J^T) for the normal row
-  double tangent_mass = 0.0;  // the same for the friction row
-  double target = 0.0;         // required normal separation speed (speculative, Baumgarte)
-  double pseudo_target = 0.0;  // split impulses: position-correction speed
+  double base_separation = 0.0;  // separation minus n . (rb - ra): current separation is
+                                 // n . (moved anchor B - moved anchor A) + this
+  double normal_mass = 0.0;      // 1 / (J M^-1 J^T) for the normal row
+  double tangent_mass = 0.0;     // the same for the friction row
   double normal_impulse = 0.0;   // accumulated
   double tangent_impulse = 0.0;  // accumulated
   double pseudo_impulse = 0.0;   // accumulated, on pseudo velocities
   double max_normal_impulse = 0.0;
-  double approach_speed = 0.0;  // normal relative velocity before solving (restitution)
+  double approach_speed = 0.0;  // normal relative velocity at impact (restitution)
+  double speed_before = 0.0;    // normal relative velocity before this substep's forces
 };
 
 struct ContactRow {
@@ -39,8 +52,9 @@ struct ContactRow {
   double friction = 0.0;
   double restitution = 0.0;
   int count = 0;
-  bool block = false;   // solve both normal rows together
-  Mat22 k;              // 2x2 effective-mass matrix of the normal rows
+  bool block = false;  // rigid mode: solve both normal rows together
+  Softness softness;
+  Mat22 k;  // 2x2 effective-mass matrix of the normal rows
   Mat22 k_inverse;
   ContactPointRow points[2];
 };

@@ -11,7 +11,7 @@ namespace {
 
 // Height balance: an internal node's two subtrees differ in height by at most this. With the
 // limit k, the sparsest tree of height H has N(H) = N(H - 1) + N(max(0, H - 1 - k)) leaves;
-// for k = 2 that grows like 1.4656^H, so H <= 1.81 log2(n) (+ a small constant). The strict
+// for k = 2 it is at least 1.4656^H (x^3 = x^2 + 1), so H <= 1.82 log2(n). The strict
 // AVL limit of 1 leaves the rotations too little freedom to follow the surface-area heuristic:
 // queries on 20k-100k random boxes visited 2.5-5x more nodes than with k = 2, while k = 2
 // comes within ~15% of an unbalanced pure-SAH tree.

@@ -9,7 +9,7 @@
 
 namespace fulcrum {
 
-// Depth-first traversal stack. The tree is height balanced (height <= 1.81 log2(n) + 1), and a
+// Depth-first traversal stack. The tree is height balanced (height <= 1.82 log2(n)), and a
 // depth-first walk holds at most height + 1 entries, so the fixed part is never exhausted in
 // practice; the vector fallback only keeps a pathological
 // tree correct. It lives on the caller's stack so concurrent or nested traversals are safe.

@@ -138,6 +138,7 @@ double distance_squared_to_segment(const Vec2& p, const Vec2& a, const Vec2& b) 
 }
 
 bool polygon_contains(const Polygon& poly, const Vec2& p) {
+  if (poly.count < 3) return false;
   // Inside the core: on the inner side of every edge's supporting line.
   bool inside_core = true;
   for (int i = 0; i < poly.count; ++i) {
@@ -268,15 +269,16 @@ Status make_polygon(std::span<const Vec2> ccw_vertices, double radius, Polygon* 
                             ": vertices are in clockwise order; counter-clockwise is required");
   }
   for (int i = 0; i < n; ++i) {
-    // A hairpin (the neighbours coincide) folds the outline back on itself.
-    if (distance(at(i - 1), at(i + 1)) < kGeometryTolerance || bulges[i] <= -kGeometryTolerance) {
+    if (bulges[i] >= kGeometryTolerance) continue;
+    // A right turn, a hairpin (the neighbours coincide, folding the outline back on itself) or
+    // a NaN from coordinates so large that the arithmetic overflows.
+    if (!(bulges[i] > -kGeometryTolerance) ||
+        !(distance(at(i - 1), at(i + 1)) >= kGeometryTolerance)) {
       return invalid_argument(vf + ": polygon is not convex at vertex " + std::to_string(i));
     }
-    if (bulges[i] < kGeometryTolerance) {
-      return invalid_argument(vf + ": vertex " + std::to_string(i) +
-                              " is collinear with its neighbours (within " +
-                              format_number(kGeometryTolerance) + ")");
-    }
+    return invalid_argument(vf + ": vertex " + std::to_string(i) +
+                            " is collinear with its neighbours (within " +
+                            format_number(kGeometryTolerance) + ")");
   }
   // Every turn is to the left, yet the outline can still wind around more than once (a
   // pentagram). A convex counter-clockwise polygon has every vertex on the inner side of every
@@ -286,7 +288,7 @@ Status make_polygon(std::span<const Vec2> ccw_vertices, double radius, Polygon* 
     Vec2 e = at(i + 1) - a;
     for (int j = 0; j < n; ++j) {
       if (j == i || j == (i + 1) % n) continue;
-      if (cross(e, at(j) - a) <= 0.0) {
+      if (!(cross(e, at(j) - a) > 0.0)) {
         return invalid_argument(vf + ": polygon is not convex (it winds more than once; vertex " +
                                 std::to_string(j) + " lies outside edge " + std::to_string(i) +
                                 ")");
@@ -376,8 +378,21 @@ Status validate_geometry(const Geometry& g, const char* field) {
       // Vertices (finite, edge lengths, convex, counter-clockwise) and radius exactly as
       // make_polygon checks them, so a hand-built polygon gets the same scrutiny.
       Polygon rebuilt;
-      return make_polygon(std::span<const Vec2>(p.vertices.data(), static_cast<size_t>(p.count)),
-                          p.radius, &rebuilt, pf.c_str());
+      s = make_polygon(std::span<const Vec2>(p.vertices.data(), static_cast<size_t>(p.count)),
+                       p.radius, &rebuilt, pf.c_str());
+      if (!s.ok()) return s;
+      // The normals must belong to the edges. Recomputing them from vertex differences loses
+      // up to ulp(|v|) / kGeometryTolerance (~2e-8 for coordinates of 1e4), far below 1e-6,
+      // while a wrong normal is off by much more.
+      for (int i = 0; i < p.count; ++i) {
+        if (!(distance(p.normals[i], rebuilt.normals[i]) <= 1e-6)) {
+          return invalid_argument(pf + ".normals[" + std::to_string(i) +
+                                  "]: is not the outward unit normal of edge " + std::to_string(i) +
+                                  " (expected " + format_vec(rebuilt.normals[i]) + ", got " +
+                                  format_vec(p.normals[i]) + ")");
+        }
+      }
+      return Status::ok_status();
     }
   }
   return invalid_argument(f + ": unknown shape type");

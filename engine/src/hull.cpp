@@ -1,6 +1,6 @@
-// Convex hull of a point set for building polygons: weld near-duplicates, run Andrew's
+// Convex hull of a point set for building polygons: sort, weld near-duplicates, run Andrew's
 // monotone chain, then drop vertices that are collinear within kGeometryTolerance. Every step
-// depends only on the input values and their order, so the output is deterministic.
+// is a pure function of the input values, so the output is deterministic.
 
 #include <algorithm>
 #include <charconv>
@@ -29,8 +29,7 @@ double bulge(const Vec2& a, const Vec2& b, const Vec2& c) {
   return cross(b - a, c - b) / base;
 }
 
-// Lexicographic order by x, then y. Welded points are pairwise distinct, so this is a strict
-// total order on them and std::sort's result does not depend on the sort's internals.
+// Lexicographic order by x, then y.
 bool lex_less(const Vec2& a, const Vec2& b) {
   return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
 }
@@ -45,15 +44,22 @@ Status compute_hull(std::span<const Vec2> points, std::vector<Vec2>* hull) {
     }
   }
 
-  // Weld: keep a point only if it is at least kGeometryTolerance from every point kept so far
-  // (first come, first kept). Afterwards every hull edge is at least that long.
+  // Sort by x, then y. stable_sort keeps equal points (say 0 and -0) in input order, so even
+  // their bit patterns come out the same on every standard library.
+  std::vector<Vec2> sorted(points.begin(), points.end());
+  std::stable_sort(sorted.begin(), sorted.end(), lex_less);
+
+  // Weld: in sorted order, keep a point only if it is at least kGeometryTolerance from every
+  // point kept so far. Kept points are sorted by x, so only the trailing ones within
+  // kGeometryTolerance in x need checking. Afterwards every hull edge is at least that long,
+  // and the result does not depend on the input order.
   const double weld_sq = kGeometryTolerance * kGeometryTolerance;
   std::vector<Vec2> kept;
-  kept.reserve(points.size());
-  for (const Vec2& p : points) {
+  kept.reserve(sorted.size());
+  for (const Vec2& p : sorted) {
     bool unique = true;
-    for (const Vec2& q : kept) {
-      if (distance_squared(p, q) < weld_sq) {
+    for (size_t j = kept.size(); j-- > 0 && kept[j].x() > p.x() - kGeometryTolerance;) {
+      if (distance_squared(p, kept[j]) < weld_sq) {
         unique = false;
         break;
       }
@@ -66,10 +72,9 @@ Status compute_hull(std::span<const Vec2> points, std::vector<Vec2>* hull) {
                             tolerance_text() + ")");
   }
 
-  // Andrew's monotone chain: sort, then build the lower hull left to right and the upper hull
-  // right to left, popping while the last two points and the new one fail to turn strictly
-  // left (cross <= 0), which also drops exactly collinear points.
-  std::sort(kept.begin(), kept.end(), lex_less);
+  // Andrew's monotone chain over the sorted points: build the lower hull left to right and the
+  // upper hull right to left, popping while the last two points and the new one fail to turn
+  // strictly left (cross <= 0), which also drops exactly collinear points.
   const size_t n = kept.size();
   std::vector<Vec2> chain(2 * n);
   size_t k = 0;

@@ -22,6 +22,10 @@ int find_root(std::vector<int>& parent, int i) {
 
 void WorldImpl::update_sleep(const std::vector<int>& awake) {
   if (awake.empty()) return;
+  if (!settings.enable_sleep) {
+    for (int bi : awake) bodies[bi].sleep_time = 0.0;
+    return;
+  }
   const double h = settings.dt;
   const double lin_tol2 = settings.linear_sleep_tolerance * settings.linear_sleep_tolerance;
   const double ang_tol2 = settings.angular_sleep_tolerance * settings.angular_sleep_tolerance;
@@ -32,8 +36,8 @@ void WorldImpl::update_sleep(const std::vector<int>& awake) {
   std::vector<double> island_min(n);
   for (int k = 0; k < n; ++k) {
     Body& b = bodies[awake[k]];
-    bool resting = settings.enable_sleep && b.enable_sleep &&
-                   length_squared(b.v) <= lin_tol2 && b.w * b.w <= ang_tol2;
+    bool resting = settings.enable_sleep && b.enable_sleep && length_squared(b.v) <= lin_tol2 &&
+                   b.w * b.w <= ang_tol2;
     b.sleep_time = resting ? b.sleep_time + h : 0.0;
     island_min[k] = b.sleep_time;
   }

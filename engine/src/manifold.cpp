@@ -233,26 +233,21 @@ struct PolygonView {
 // Returns max_i s_i and its face. The cores are disjoint iff this (or the other polygon's) value
 // is positive, and then it is a lower bound on their distance.
 double max_separation(const PolygonView& p1, const PolygonView& p2, int* face) {
-  // Vertices in the outer loop so that each face's running minimum is its own dependency chain
-  // (a single chain of min operations serialises the whole test). Scalar arithmetic on purpose:
-  // B's vertices were just written component by component, and packed 16-byte loads of them
-  // would stall on store forwarding.
-  double s[kMaxPolygonVertices];
-  for (int i = 0; i < p1.count; ++i) s[i] = DBL_MAX;
-  for (int j = 0; j < p2.count; ++j) {
-    const double wx = p2.vertices[j].x();
-    const double wy = p2.vertices[j].y();
-    for (int i = 0; i < p1.count; ++i) {
-      const double si = p1.normals[i].x() * (wx - p1.vertices[i].x()) +
-                        p1.normals[i].y() * (wy - p1.vertices[i].y());
-      s[i] = std::min(s[i], si);
-    }
-  }
   int best_face = 0;
   double best = -DBL_MAX;
   for (int i = 0; i < p1.count; ++i) {
-    if (s[i] > best) {
-      best = s[i];
+    // Scalar arithmetic on purpose: B's vertices were just written component by component, and
+    // packed 16-byte loads of them would stall on store forwarding.
+    const double nx = p1.normals[i].x();
+    const double ny = p1.normals[i].y();
+    const double vx = p1.vertices[i].x();
+    const double vy = p1.vertices[i].y();
+    double s = DBL_MAX;
+    for (int j = 0; j < p2.count; ++j) {
+      s = std::min(s, nx * (p2.vertices[j].x() - vx) + ny * (p2.vertices[j].y() - vy));
+    }
+    if (s > best) {
+      best = s;
       best_face = i;
     }
   }
@@ -260,8 +255,10 @@ double max_separation(const PolygonView& p1, const PolygonView& p2, int* face) {
   return best;
 }
 
-// The general routine: core separation from SAT, then either the closest features (separated
-// polygons whose faces do not overlap) or the incident face clipped to the reference face.
+// The general routine: the core separation from SAT picks a reference face (and the most
+// anti-parallel incident face); then either one point between the closest features of the two
+// faces (separated cores meeting corner to corner), or the incident face clipped to the
+// reference face, which gives up to two points.
 void collide_polygon_views(const PolygonView& pa, const PolygonView& pb, double speculative,
                            Manifold& m) {
   const double total = pa.radius + pb.radius;
@@ -312,23 +309,35 @@ void collide_polygon_views(const PolygonView& pa, const PolygonView& pb, double 
   const double r1 = ref.radius;
   const double r2 = inc.radius;
   const double separation = std::max(sep_a, sep_b);
-  if (separation > 0.1 * kLinearSlop && overlap <= 0.0) {
-    // Separated cores whose faces do not overlap along t: the closest points are a vertex of
-    // one face and a point of the other (vertex-vertex for corners), whose direction is the
-    // proper normal, which matters for rounded corners. The distance is >= separation > 0.
+  if (separation > 0.1 * kLinearSlop) {
+    // Separated cores. Clipping is exact for incident points inside the reference face's slab
+    // 0 <= t <= upper1 (their height is their distance), but it discards an incident vertex
+    // beyond a side plane, which is the closest point when two corners face each other. So take
+    // the closest points of the two faces instead when the faces do not overlap along t, or when
+    // they are vertex to vertex with the incident vertex clearly outside the slab. The tolerance
+    // keeps exactly stacked equal boxes, whose closest pair may land on two vertices by
+    // rounding, on the two-point path. The direction between the closest points is the proper
+    // normal, which matters for rounded corners; the distance is >= separation > 0.
     const SegmentDistance sd = segment_distance(v11, v12, v21, v22);
-    const double dist = std::sqrt(sd.distance_squared);
-    const Vec2 n12 = (sd.closest2 - sd.closest1) / dist;
-    const Vec2 c1 = sd.closest1 + r1 * n12;
-    const Vec2 c2 = sd.closest2 - r2 * n12;
-    const int ref_vertex = sd.fraction1 < 0.5 ? i11 : i12;
-    const int inc_vertex = sd.fraction2 < 0.5 ? i21 : i22;
-    m.normal = flip ? Vec2(-n12) : n12;
-    add_point(
-        m, 0.5 * (c1 + c2), dist - total,
-        flip ? make_feature_id(inc_vertex, ref_vertex) : make_feature_id(ref_vertex, inc_vertex),
-        speculative);
-    return;
+    const bool vertex_vertex = (sd.fraction1 == 0.0 || sd.fraction1 == 1.0) &&
+                               (sd.fraction2 == 0.0 || sd.fraction2 == 1.0);
+    const double t_closest = dot(sd.closest2 - v11, t);
+    const double slab_tolerance = 0.1 * kLinearSlop;
+    if (overlap <= 0.0 ||
+        (vertex_vertex && (t_closest < -slab_tolerance || t_closest > upper1 + slab_tolerance))) {
+      const double dist = std::sqrt(sd.distance_squared);
+      const Vec2 n12 = (sd.closest2 - sd.closest1) / dist;
+      const Vec2 c1 = sd.closest1 + r1 * n12;
+      const Vec2 c2 = sd.closest2 - r2 * n12;
+      const int ref_vertex = sd.fraction1 < 0.5 ? i11 : i12;
+      const int inc_vertex = sd.fraction2 < 0.5 ? i21 : i22;
+      m.normal = flip ? Vec2(-n12) : n12;
+      add_point(
+          m, 0.5 * (c1 + c2), dist - total,
+          flip ? make_feature_id(inc_vertex, ref_vertex) : make_feature_id(ref_vertex, inc_vertex),
+          speculative);
+      return;
+    }
   }
 
   // Clip the incident face to the reference face's side planes t = 0 and t = upper1. The clip

@@ -17,8 +17,9 @@ inline constexpr uint32_t make_feature_id(int a, int b) {
 
 struct ManifoldPoint {
   Vec2 point = Vec2::Zero();  // world position, midway between the two surfaces, m
-  double separation = 0.0;    // signed distance between the surfaces along the normal, m (< 0: overlap)
-  uint32_t id = 0;            // feature id, stable while the same features touch
+  double separation =
+      0.0;          // signed distance between the surfaces along the normal, m (< 0: overlap)
+  uint32_t id = 0;  // feature id, stable while the same features touch
 
   // Filled and used by the contact solver, not by the manifold functions.
   Vec2 anchor_a = Vec2::Zero();  // point relative to body A's centre of mass, world frame

@@ -28,8 +28,8 @@ std::vector<RayHit> cast(const WorldImpl& w, const Vec2& origin, const Vec2& tra
                        sub.max_fraction};
     CastOutput out = ray_cast(s.geometry, local);
     if (!out.hit) return sub.max_fraction;
-    hits.push_back(RayHit{w.shape_id(si), xf.apply(out.point), xf.q.rotate(out.normal),
-                          out.fraction});
+    hits.push_back(
+        RayHit{w.shape_id(si), xf.apply(out.point), xf.q.rotate(out.normal), out.fraction});
     // Keep equal fractions reachable so that ties are broken by shape id below.
     return clip ? out.fraction : sub.max_fraction;
   });

@@ -11,8 +11,10 @@ Status at(const Status& s, const std::string& where, const char* kind) {
   if (s.ok()) return s;
   std::string msg = s.message();
   std::string head = std::string(kind) + ".";
-  if (msg.rfind(head, 0) == 0) msg = msg.substr(head.size());
-  else if (msg.rfind(kind, 0) == 0) msg = msg.substr(std::string(kind).size());
+  if (msg.rfind(head, 0) == 0)
+    msg = msg.substr(head.size());
+  else if (msg.rfind(kind, 0) == 0)
+    msg = msg.substr(std::string(kind).size());
   return Status(s.code(), where + (msg.rfind(":", 0) == 0 ? "" : ".") + msg);
 }
 

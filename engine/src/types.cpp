@@ -15,7 +15,8 @@ std::string num(double x) {
 
 // Each check returns an error naming `field` when the value is outside its range.
 Status finite(const char* field, double x) {
-  if (!std::isfinite(x)) return invalid_argument(std::string(field) + ": must be finite (got " + num(x) + ")");
+  if (!std::isfinite(x))
+    return invalid_argument(std::string(field) + ": must be finite (got " + num(x) + ")");
   return {};
 }
 Status finite(const char* field, const Vec2& v) {
@@ -59,6 +60,17 @@ const char* body_type_name(BodyType type) {
 Status validate_settings(const WorldSettings& s) {
   FULCRUM_RETURN_IF_ERROR(finite("settings.gravity", s.gravity));
   FULCRUM_RETURN_IF_ERROR(above("settings.dt", s.dt, 0.0));
+  if (s.substeps < 1 || s.substeps > 1000) {
+    return invalid_argument("settings.substeps: must be in [1, 1000] (got " +
+                            std::to_string(s.substeps) + ")");
+  }
+  if (s.relax_iterations < 0 || s.relax_iterations > 1000) {
+    return invalid_argument("settings.relax_iterations: must be in [0, 1000] (got " +
+                            std::to_string(s.relax_iterations) + ")");
+  }
+  FULCRUM_RETURN_IF_ERROR(in_range("settings.contact_hertz", s.contact_hertz, 0.0, 1e6));
+  FULCRUM_RETURN_IF_ERROR(
+      in_range("settings.contact_damping_ratio", s.contact_damping_ratio, 0.0, 1e6));
   if (s.velocity_iterations < 1 || s.velocity_iterations > 1000) {
     return invalid_argument("settings.velocity_iterations: must be in [1, 1000] (got " +
                             std::to_string(s.velocity_iterations) + ")");
@@ -70,20 +82,26 @@ Status validate_settings(const WorldSettings& s) {
   FULCRUM_RETURN_IF_ERROR(in_range("settings.baumgarte", s.baumgarte, 0.0, 1.0));
   FULCRUM_RETURN_IF_ERROR(in_range("settings.linear_slop", s.linear_slop, 0.0, 1.0));
   FULCRUM_RETURN_IF_ERROR(above("settings.max_correction_speed", s.max_correction_speed, 0.0));
-  FULCRUM_RETURN_IF_ERROR(in_range("settings.restitution_threshold", s.restitution_threshold, 0.0, 1e6));
-  FULCRUM_RETURN_IF_ERROR(in_range("settings.early_exit_tolerance", s.early_exit_tolerance, 0.0, 1e30));
-  FULCRUM_RETURN_IF_ERROR(in_range("settings.speculative_distance", s.speculative_distance, 0.0, 10.0));
+  FULCRUM_RETURN_IF_ERROR(
+      in_range("settings.restitution_threshold", s.restitution_threshold, 0.0, 1e6));
+  FULCRUM_RETURN_IF_ERROR(
+      in_range("settings.early_exit_tolerance", s.early_exit_tolerance, 0.0, 1e30));
+  FULCRUM_RETURN_IF_ERROR(
+      in_range("settings.speculative_distance", s.speculative_distance, 0.0, 10.0));
   FULCRUM_RETURN_IF_ERROR(in_range("settings.aabb_margin", s.aabb_margin, 0.0, 100.0));
   FULCRUM_RETURN_IF_ERROR(above("settings.max_linear_speed", s.max_linear_speed, 0.0));
   FULCRUM_RETURN_IF_ERROR(above("settings.time_to_sleep", s.time_to_sleep, 0.0));
-  FULCRUM_RETURN_IF_ERROR(in_range("settings.linear_sleep_tolerance", s.linear_sleep_tolerance, 0.0, 1e6));
-  FULCRUM_RETURN_IF_ERROR(in_range("settings.angular_sleep_tolerance", s.angular_sleep_tolerance, 0.0, 1e6));
+  FULCRUM_RETURN_IF_ERROR(
+      in_range("settings.linear_sleep_tolerance", s.linear_sleep_tolerance, 0.0, 1e6));
+  FULCRUM_RETURN_IF_ERROR(
+      in_range("settings.angular_sleep_tolerance", s.angular_sleep_tolerance, 0.0, 1e6));
   return {};
 }
 
 Status validate_body_def(const BodyDef& d) {
   if (static_cast<int>(d.type) > 3) {
-    return invalid_argument("body.type: unknown body type " + std::to_string(static_cast<int>(d.type)));
+    return invalid_argument("body.type: unknown body type " +
+                            std::to_string(static_cast<int>(d.type)));
   }
   FULCRUM_RETURN_IF_ERROR(finite("body.position", d.position));
   FULCRUM_RETURN_IF_ERROR(finite("body.angle", d.angle));
@@ -115,7 +133,8 @@ Status validate_chain_def(const ChainDef& d) {
     size_t j = i + 1 < d.points.size() ? i + 1 : 0;
     if (j == 0 && !d.loop) break;
     if (distance(d.points[i], d.points[j]) <= kGeometryTolerance) {
-      return invalid_argument(field + ": coincides with the next point (segments must be longer than " +
+      return invalid_argument(field +
+                              ": coincides with the next point (segments must be longer than " +
                               num(kGeometryTolerance) + " m)");
     }
   }

@@ -157,7 +157,9 @@ Status World::set_settings(const WorldSettings& settings) {
   return {};
 }
 
-const WorldSettings& World::settings() const { return impl_->settings; }
+const WorldSettings& World::settings() const {
+  return impl_->settings;
+}
 
 // --- Bodies ------------------------------------------------------------------------------------
 
@@ -224,8 +226,12 @@ Status World::destroy_body(BodyId id) {
   return {};
 }
 
-bool World::is_valid(BodyId id) const { return impl_->body_index(id) != kNullIndex; }
-bool World::is_valid(ShapeId id) const { return impl_->shape_index(id) != kNullIndex; }
+bool World::is_valid(BodyId id) const {
+  return impl_->body_index(id) != kNullIndex;
+}
+bool World::is_valid(ShapeId id) const {
+  return impl_->shape_index(id) != kNullIndex;
+}
 
 Result<BodyState> World::body_state(BodyId id) const {
   int bi = impl_->body_index(id);
@@ -253,7 +259,9 @@ std::vector<BodyId> World::bodies() const {
   return out;
 }
 
-int World::body_count() const { return impl_->body_count; }
+int World::body_count() const {
+  return impl_->body_count;
+}
 
 // --- Shapes ------------------------------------------------------------------------------------
 
@@ -305,10 +313,12 @@ Result<ShapeId> World::create_shape(BodyId body, const ShapeDef& def) {
     if (c->center != Vec2::Zero()) {
       return invalid_argument("shape.circle.center: a particle's circle must be centred at (0, 0)");
     }
-    if (!(def.density > 0.0)) return invalid_argument("shape.density: a particle needs density > 0");
+    if (!(def.density > 0.0))
+      return invalid_argument("shape.density: a particle needs density > 0");
   }
   if (geometry_type(def.geometry) == ShapeType::kSegment && b.is_dynamic()) {
-    return invalid_argument("shape.segment: segments have no mass; put them on static or kinematic bodies");
+    return invalid_argument(
+        "shape.segment: segments have no mass; put them on static or kinematic bodies");
   }
   int si = add_shape(w, bi, def);
   w.update_mass(bi);
@@ -600,7 +610,11 @@ void World::step() {
   ++w.tick;
 }
 
-int64_t World::tick() const { return impl_->tick; }
-const StepEvents& World::events() const { return impl_->events; }
+int64_t World::tick() const {
+  return impl_->tick;
+}
+const StepEvents& World::events() const {
+  return impl_->events;
+}
 
 }  // namespace fulcrum

@@ -20,12 +20,12 @@ struct Body {
   uint32_t generation = 0;
   bool alive = false;
 
-  Transform xf;                          // body origin
-  Vec2 local_center = Vec2::Zero();      // centre of mass in the body frame
-  Vec2 center = Vec2::Zero();            // centre of mass, world
-  Vec2 v = Vec2::Zero();                 // velocity of the centre of mass
+  Transform xf;                      // body origin
+  Vec2 local_center = Vec2::Zero();  // centre of mass in the body frame
+  Vec2 center = Vec2::Zero();        // centre of mass, world
+  Vec2 v = Vec2::Zero();             // velocity of the centre of mass
   double w = 0.0;
-  Vec2 force = Vec2::Zero();             // applied for the next tick
+  Vec2 force = Vec2::Zero();  // applied for the next tick
   double torque = 0.0;
 
   double mass = 0.0, inv_mass = 0.0;
@@ -37,7 +37,7 @@ struct Body {
   double sleep_time = 0.0;
   uint64_t user_data = 0;
 
-  std::vector<int> shapes;       // shape indices, in creation order
+  std::vector<int> shapes;        // shape indices, in creation order
   int contact_list = kNullIndex;  // head of this body's contact edge list (edge key)
   int awake_slot = kNullIndex;    // position in WorldImpl::awake_bodies, or kNullIndex
 
@@ -54,7 +54,7 @@ struct Shape {
   Filter filter;
   bool is_sensor = false;
   uint64_t user_data = 0;
-  int proxy = kNullIndex;    // broad-phase leaf
+  int proxy = kNullIndex;  // broad-phase leaf
   bool in_move_buffer = false;
 };
 
@@ -141,7 +141,11 @@ class WorldImpl {
   SolverScratch solver_scratch;
 };
 
-inline int edge_contact(int edge_key) { return edge_key >> 1; }
-inline int edge_side(int edge_key) { return edge_key & 1; }
+inline int edge_contact(int edge_key) {
+  return edge_key >> 1;
+}
+inline int edge_side(int edge_key) {
+  return edge_key & 1;
+}
 
 }  // namespace fulcrum

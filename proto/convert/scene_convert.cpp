@@ -4,19 +4,24 @@
 
 #include <algorithm>
 #include <bit>
+#include <cctype>
 #include <cerrno>
 #include <charconv>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <span>
+#include <limits>
+#include <optional>
 #include <sstream>
+#include <unordered_set>
 #include <utility>
 #include <vector>
 
 #include "fulcrum/geometry.h"
 #include "fulcrum/scenes.h"
+#include "fulcrum/trig.h"
 #include "fulcrum/types.h"
 
 namespace fulcrum {
@@ -29,9 +34,11 @@ namespace {
     if (!status_.ok()) return status_; \
   } while (false)
 
-// Builder sizes are capped so that a small request cannot ask for an unbounded allocation.
+// Builder sizes and the scene as a whole are capped so that a small request cannot ask for an
+// unbounded allocation.
 constexpr int kMaxPyramidBase = 1000;
 constexpr int kMaxStackCount = 10000;
+constexpr size_t kMaxSceneBodies = 1000000;
 
 // Shortest text that parses back to the same double ("-1", "0.1", "nan").
 std::string fmt(double v) {
@@ -124,17 +131,40 @@ Status read_opt_vec(const std::string& path, bool has, const v1::Vec2& value, Ve
   return Status::ok_status();
 }
 
+// Refuses to grow the scene past kMaxSceneBodies.
+Status check_room(const std::string& path, const SceneDef& scene, int64_t added) {
+  if (scene.bodies.size() + static_cast<size_t>(added) > kMaxSceneBodies) {
+    return fail(path,
+                "the scene would have more than " + std::to_string(kMaxSceneBodies) + " bodies");
+  }
+  return Status::ok_status();
+}
+
 // --- Proto to engine ---------------------------------------------------------------------------
 
 Status settings_from_proto(const v1::WorldSettings& p, const std::string& path, WorldSettings* s) {
   CONVERT_RETURN_IF_ERROR(
       read_opt_vec(join(path, "gravity"), p.has_gravity(), p.gravity(), &s->gravity));
   CONVERT_RETURN_IF_ERROR(read_opt(join(path, "dt"), p.has_dt(), p.dt(), Range::kPositive, &s->dt));
+  if (p.has_substeps()) {
+    CONVERT_RETURN_IF_ERROR(check_int(join(path, "substeps"), p.substeps(), 1, INT32_MAX));
+    s->substeps = p.substeps();
+  }
   if (p.has_velocity_iterations()) {
     CONVERT_RETURN_IF_ERROR(
         check_int(join(path, "velocity_iterations"), p.velocity_iterations(), 1, INT32_MAX));
     s->velocity_iterations = p.velocity_iterations();
   }
+  if (p.has_relax_iterations()) {
+    CONVERT_RETURN_IF_ERROR(
+        check_int(join(path, "relax_iterations"), p.relax_iterations(), 0, INT32_MAX));
+    s->relax_iterations = p.relax_iterations();
+  }
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "contact_hertz"), p.has_contact_hertz(),
+                                   p.contact_hertz(), Range::kNonNegative, &s->contact_hertz));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "contact_damping_ratio"),
+                                   p.has_contact_damping_ratio(), p.contact_damping_ratio(),
+                                   Range::kNonNegative, &s->contact_damping_ratio));
   if (p.has_position_iterations()) {
     CONVERT_RETURN_IF_ERROR(
         check_int(join(path, "position_iterations"), p.position_iterations(), 0, INT32_MAX));
@@ -247,20 +277,24 @@ Status polygon_from_proto(const v1::Polygon& p, const std::string& path, Geometr
   return Status::ok_status();
 }
 
+// The one way a Box message becomes a polygon, shared with scene_to_proto's box detection.
+// The centred, unturned box goes through make_box so that it is bit-identical to the boxes the
+// builders make.
+Polygon build_box(double hx, double hy, const Vec2& center, double angle, double radius) {
+  Polygon box = center == Vec2::Zero() && angle == 0.0 ? make_box(hx, hy)
+                                                       : make_offset_box(hx, hy, center, angle);
+  box.radius = radius;
+  return box;
+}
+
 Status box_from_proto(const v1::Box& p, const std::string& path, Geometry* out) {
   CONVERT_RETURN_IF_ERROR(check_size(join(path, "half_width"), p.half_width()));
   CONVERT_RETURN_IF_ERROR(check_size(join(path, "half_height"), p.half_height()));
   if (p.has_center()) CONVERT_RETURN_IF_ERROR(check_vec(join(path, "center"), p.center()));
   CONVERT_RETURN_IF_ERROR(check(join(path, "angle"), p.angle(), Range::kFinite));
   CONVERT_RETURN_IF_ERROR(check(join(path, "radius"), p.radius(), Range::kNonNegative));
-  Vec2 center = p.has_center() ? to_vec(p.center()) : Vec2::Zero();
-  // The centred, unturned box goes through make_box so that it is bit-identical to the boxes
-  // the builders make (and scene_to_proto can recognise it again).
-  Polygon box = center == Vec2::Zero() && p.angle() == 0.0
-                    ? make_box(p.half_width(), p.half_height())
-                    : make_offset_box(p.half_width(), p.half_height(), center, p.angle());
-  box.radius = p.radius();
-  *out = box;
+  const Vec2 center = p.has_center() ? to_vec(p.center()) : Vec2::Zero();
+  *out = build_box(p.half_width(), p.half_height(), center, p.angle(), p.radius());
   return Status::ok_status();
 }
 
@@ -401,6 +435,7 @@ Status pyramid_from_proto(const v1::Builder::Pyramid& p, const std::string& path
     }
     o.top_density = top;
   }
+  CONVERT_RETURN_IF_ERROR(check_room(path, *scene, int64_t{o.base} * (o.base + 1) / 2));
   scenes::add_pyramid(scene, o);
   return Status::ok_status();
 }
@@ -421,6 +456,7 @@ Status stack_from_proto(const v1::Builder::Stack& p, const std::string& path, Sc
       read_opt(join(path, "density"), p.has_density(), p.density(), Range::kPositive, &o.density));
   CONVERT_RETURN_IF_ERROR(read_opt(join(path, "friction"), p.has_friction(), p.friction(),
                                    Range::kNonNegative, &o.friction));
+  CONVERT_RETURN_IF_ERROR(check_room(path, *scene, o.count));
   scenes::add_stack(scene, o);
   return Status::ok_status();
 }
@@ -431,6 +467,7 @@ Status ground_from_proto(const v1::Builder::Ground& p, const std::string& path, 
   double friction = 0.6;  // add_ground's default
   CONVERT_RETURN_IF_ERROR(read_opt(join(path, "friction"), p.has_friction(), p.friction(),
                                    Range::kNonNegative, &friction));
+  CONVERT_RETURN_IF_ERROR(check_room(path, *scene, 1));
   scenes::add_ground(scene, p.half_width(), p.top(), friction);
   return Status::ok_status();
 }
@@ -475,35 +512,110 @@ bool same_polygon(const Polygon& a, const Polygon& b) {
   return true;
 }
 
-// Writes `p` as a Box when box_from_proto would rebuild exactly the same bits. Only unturned
-// boxes are tried: a turned box's angle cannot be recovered bit-exactly from its vertices.
-bool box_to_proto(const Polygon& p, v1::Box* out) {
-  if (p.count != 4) return false;
-  double min_x = p.vertices[0].x(), max_x = min_x;
-  double min_y = p.vertices[0].y(), max_y = min_y;
-  for (int i = 1; i < 4; ++i) {
-    min_x = std::min(min_x, p.vertices[i].x());
-    max_x = std::max(max_x, p.vertices[i].x());
-    min_y = std::min(min_y, p.vertices[i].y());
-    max_y = std::max(max_y, p.vertices[i].y());
+// Distance from |x| to the next larger double.
+double ulp(double x) {
+  const double a = std::abs(x);
+  return std::nextafter(a, std::numeric_limits<double>::infinity()) - a;
+}
+
+// Candidates for a value known up to `steps` ulps, nearest first; `seen` (bit patterns) keeps
+// `out` free of duplicates.
+void add_candidates(double estimate, int steps, std::vector<double>* out,
+                    std::unordered_set<uint64_t>* seen) {
+  auto add = [&](double v) {
+    if (seen->insert(std::bit_cast<uint64_t>(v)).second) out->push_back(v);
+  };
+  add(estimate);
+  double down = estimate, up = estimate;
+  for (int j = 0; j < steps; ++j) {
+    down = std::nextafter(down, -std::numeric_limits<double>::infinity());
+    up = std::nextafter(up, std::numeric_limits<double>::infinity());
+    add(down);
+    add(up);
   }
-  const Vec2 c = p.centroid;
-  // Candidate half sizes: exact for a centred box, and the ways rounding can go for an
-  // offset one. Each candidate is verified by rebuilding it.
-  const double hxs[] = {max_x - c.x(), c.x() - min_x, 0.5 * (max_x - min_x)};
-  const double hys[] = {max_y - c.y(), c.y() - min_y, 0.5 * (max_y - min_y)};
-  for (double hx : hxs) {
-    for (double hy : hys) {
-      if (!(hx > 0.0 && hy > 0.0)) continue;
-      const bool centred = c == Vec2::Zero();
-      Polygon candidate = centred ? make_box(hx, hy) : make_offset_box(hx, hy, c, 0.0);
-      candidate.radius = p.radius;
-      if (!same_polygon(candidate, p)) continue;
-      out->set_half_width(hx);
-      out->set_half_height(hy);
-      if (!centred) vec_to_proto(c, out->mutable_center());
-      out->set_radius(p.radius);
-      return true;
+}
+
+// The angle whose Rot::from_angle is exactly `q`, if one lies within a few ulps of atan2 (or of
+// atan2 +- 2 pi, for angles just outside (-pi, pi]).
+std::optional<double> exact_angle(const Rot& q) {
+  for (double turn : {0.0, 2.0 * kPi, -2.0 * kPi}) {
+    std::vector<double> angles;
+    std::unordered_set<uint64_t> seen;
+    add_candidates(q.angle() + turn, 3, &angles, &seen);
+    for (double a : angles) {
+      const Rot r = Rot::from_angle(a);
+      if (same(r.c, q.c) && same(r.s, q.s)) return a;
+    }
+  }
+  return std::nullopt;
+}
+
+// Writes `p` as a Box when box_from_proto would rebuild exactly the same bits; otherwise
+// returns false and `p` is written as a Polygon (whose normals and centroid make_polygon
+// recomputes, not always to the same last bit as make_offset_box).
+//
+// make_box's normals[1] is (1, 0), so a turned box's normals[1] is exactly (cos, sin) of its
+// angle. The half sizes are then searched near their estimates from the vertices. Every
+// candidate is verified by rebuilding the polygon, so a miss costs compactness and last-bit
+// exactness of the normals, never correctness.
+bool box_to_proto(const Polygon& p, v1::Box* out) {
+  if (p.count != 4 || !(p.radius >= 0.0) || !is_finite(p.centroid)) return false;
+  const Rot q{p.normals[1].x(), p.normals[1].y()};
+  const std::optional<double> angle = exact_angle(q);
+  if (!angle) return false;
+  // A box's normals depend only on its angle: this rejects other quadrilaterals cheaply.
+  const Polygon unit = build_box(1.0, 1.0, Vec2(1.0, 1.0), *angle, 0.0);
+  for (int i = 0; i < 4; ++i) {
+    if (!same(unit.normals[i], p.normals[i])) return false;
+  }
+
+  // The centre as box_from_proto will see it: written only when non-zero.
+  const bool write_center = p.centroid != Vec2::Zero();
+  const Vec2 center = write_center ? p.centroid : Vec2::Zero();
+  // Vertices carry rounding errors of the largest coordinate involved, so a half size much
+  // smaller than that is known only to within many of its own ulps; yet only the exact value
+  // (or one an ulp away) rebuilds the same vertices. Hence single-ulp steps over a range that
+  // grows with the ratio, nearest first.
+  double scale = std::max(std::abs(center.x()), std::abs(center.y()));
+  for (int i = 0; i < 4; ++i) {
+    scale = std::max({scale, std::abs(p.vertices[i].x()), std::abs(p.vertices[i].y())});
+  }
+  auto steps_for = [scale](double e) {
+    return static_cast<int>(std::min(256.0, 2.0 * ulp(scale) / ulp(e) + 2.0));
+  };
+  // make_box's vertices are (-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy).
+  std::vector<double> hxs, hys;
+  std::unordered_set<uint64_t> seen_x, seen_y;
+  for (int pass = 0; pass < 2; ++pass) {  // every estimate itself first, then the ranges
+    for (int i = 0; i < 4; ++i) {
+      const Vec2 local = q.inv_rotate(p.vertices[i] - center);
+      const double ex = std::abs(local.x()), ey = std::abs(local.y());
+      add_candidates(ex, pass == 0 ? 0 : steps_for(ex), &hxs, &seen_x);
+      add_candidates(ey, pass == 0 ? 0 : steps_for(ey), &hys, &seen_y);
+    }
+  }
+
+  auto try_pair = [&](double hx, double hy) {
+    // box_from_proto refuses half sizes below the tolerance.
+    if (!(hx >= kGeometryTolerance && hy >= kGeometryTolerance)) return false;
+    if (!same_polygon(build_box(hx, hy, center, *angle, p.radius), p)) return false;
+    out->set_half_width(hx);
+    out->set_half_height(hy);
+    if (write_center) vec_to_proto(center, out->mutable_center());
+    out->set_angle(*angle);
+    out->set_radius(p.radius);
+    return true;
+  };
+  // Pairs in shells of growing max(i, j), so that near candidates come first, within a budget
+  // that bounds the cost of a miss.
+  const size_t nx = hxs.size(), ny = hys.size();
+  int budget = 4096;
+  for (size_t d = 0; d < std::max(nx, ny) && budget > 0; ++d) {
+    for (size_t j = 0; d < nx && j <= std::min(d, ny - 1); ++j, --budget) {
+      if (try_pair(hxs[d], hys[j])) return true;
+    }
+    for (size_t i = 0; d < ny && i < std::min(d, nx); ++i, --budget) {
+      if (try_pair(hxs[i], hys[d])) return true;
     }
   }
   return false;
@@ -595,7 +707,11 @@ void body_to_proto(const SceneBody& b, v1::Body* out) {
 void settings_to_proto(const WorldSettings& s, v1::WorldSettings* out) {
   vec_to_proto(s.gravity, out->mutable_gravity());
   out->set_dt(s.dt);
+  out->set_substeps(s.substeps);
   out->set_velocity_iterations(s.velocity_iterations);
+  out->set_relax_iterations(s.relax_iterations);
+  out->set_contact_hertz(s.contact_hertz);
+  out->set_contact_damping_ratio(s.contact_damping_ratio);
   out->set_position_iterations(s.position_iterations);
   out->set_split_impulses(s.split_impulses);
   out->set_baumgarte(s.baumgarte);
@@ -622,6 +738,7 @@ void settings_to_proto(const WorldSettings& s, v1::WorldSettings* out) {
 std::string tidy_json_error(const std::string& message) {
   std::string path;
   std::string rest = message;
+  if (rest.rfind(": ", 0) == 0) return rest.substr(2);  // an error at the root: no path
   if (!rest.empty() && rest[0] == '(') {
     size_t close = rest.find(')');
     if (close == std::string::npos) return message;
@@ -637,6 +754,41 @@ std::string tidy_json_error(const std::string& message) {
     return join(path, field) + ": unknown field";
   }
   return message;
+}
+
+// Protobuf prints -0.0 as "-0", which its parser reads back as the integer 0, losing the sign.
+// Rewrites every bare -0 number (outside strings) as -0.0, which parses back to -0.0.
+std::string keep_negative_zeros(const std::string& json) {
+  std::string out;
+  out.reserve(json.size());
+  bool in_string = false;
+  bool escaped = false;
+  for (size_t i = 0; i < json.size(); ++i) {
+    const char ch = json[i];
+    out.push_back(ch);
+    if (in_string) {
+      if (escaped) {
+        escaped = false;
+      } else if (ch == '\\') {
+        escaped = true;
+      } else if (ch == '"') {
+        in_string = false;
+      }
+      continue;
+    }
+    if (ch == '"') {
+      in_string = true;
+    } else if (ch == '-' && i + 1 < json.size() && json[i + 1] == '0') {
+      const char next = i + 2 < json.size() ? json[i + 2] : ' ';
+      const bool more = std::isdigit(static_cast<unsigned char>(next)) || next == '.' ||
+                        next == 'e' || next == 'E';
+      if (!more) {
+        out += "0.0";
+        ++i;  // the '0' is written
+      }
+    }
+  }
+  return out;
 }
 
 }  // namespace
@@ -661,6 +813,7 @@ Result<SceneDef> scene_from_proto(const v1::Scene& proto) {
     CONVERT_RETURN_IF_ERROR(
         builder_from_proto(proto.builders(i), indexed("", "builders", i), &scene));
   }
+  CONVERT_RETURN_IF_ERROR(check_room("bodies", scene, proto.bodies_size()));
   scene.bodies.reserve(scene.bodies.size() + proto.bodies_size());
   for (int i = 0; i < proto.bodies_size(); ++i) {
     SceneBody body;
@@ -679,6 +832,9 @@ v1::Scene scene_to_proto(const SceneDef& scene, std::string_view name) {
 }
 
 Result<SceneDef> parse_scene_json(std::string_view json) {
+  if (json.find_first_not_of(" \t\r\n") == std::string_view::npos) {
+    return invalid_argument("empty scene (expected a JSON object)");
+  }
   v1::Scene proto;
   google::protobuf::util::JsonParseOptions options;
   options.ignore_unknown_fields = false;  // a misspelt field must not silently take a default
@@ -715,7 +871,7 @@ std::string scene_to_json(const SceneDef& scene, std::string_view name) {
   std::string out;
   // Printing a message we just built cannot fail.
   (void)google::protobuf::util::MessageToJsonString(scene_to_proto(scene, name), &out, options);
-  return out;
+  return keep_negative_zeros(out);
 }
 
 #undef CONVERT_RETURN_IF_ERROR

@@ -12,6 +12,7 @@
 #include <sstream>
 #include <string>
 #include <utility>
+#include <variant>
 #include <vector>
 
 #include "fulcrum/geometry.h"
@@ -204,9 +205,13 @@ SceneDef AwkwardScene() {
   WorldSettings& s = scene.settings;
   s.gravity = Vec2(0.1, -9.80665);
   s.dt = 1.0 / 240.0;
+  s.substeps = 7;
   s.velocity_iterations = 13;
+  s.relax_iterations = 0;
+  s.contact_hertz = 0.0;
+  s.contact_damping_ratio = 0.1;
   s.position_iterations = 0;
-  s.split_impulses = false;
+  s.split_impulses = true;
   s.baumgarte = 1.0 / 3.0;
   s.linear_slop = 5e-324;  // the smallest denormal
   s.max_correction_speed = 1.7976931348623157e308;
@@ -302,6 +307,25 @@ SceneDef AwkwardScene() {
   return scene;
 }
 
+// --- Schema guard ----------------------------------------------------------------------------
+
+// scene.proto and scene_convert.cpp must cover every field of the engine's definition structs.
+// A size change here means a field was added or removed in engine/include/fulcrum: update
+// scene.proto, scene_convert.cpp (both directions) and the comparisons above, then these
+// numbers (x86-64 sizes).
+TEST(SceneSchema, EngineDefinitionStructsAreCovered) {
+  EXPECT_EQ(sizeof(WorldSettings), 176u);
+  EXPECT_EQ(sizeof(BodyDef), 112u);
+  EXPECT_EQ(sizeof(ShapeDef), 368u);
+  EXPECT_EQ(sizeof(ChainDef), 80u);
+  EXPECT_EQ(sizeof(Filter), 24u);
+  EXPECT_EQ(sizeof(Circle), 32u);
+  EXPECT_EQ(sizeof(Capsule), 48u);
+  EXPECT_EQ(sizeof(Segment), 32u);
+  EXPECT_EQ(sizeof(Polygon), 288u);
+  EXPECT_EQ(std::variant_size_v<Geometry>, 4u);
+}
+
 // --- Round trips -----------------------------------------------------------------------------
 
 TEST(SceneJson, RoundTripIsExact) {
@@ -333,6 +357,29 @@ TEST(SceneJson, ExportedBoxesStayBoxes) {
   // Every settings field is written out.
   EXPECT_TRUE(proto.settings().has_dt());
   EXPECT_TRUE(proto.settings().has_angular_sleep_tolerance());
+}
+
+// Turned boxes are recognised (their angle recovered bit-exactly) and round trip exactly.
+TEST(SceneJson, TurnedBoxesStayBoxes) {
+  SceneDef scene;
+  scene.bodies.emplace_back();
+  const double angles[] = {0.3,   -0.3, 1.5707963267948966, -3.141592653589793, 3.141592653589793,
+                           1e-10, -2.5, 0.7853981633974483};
+  int i = 0;
+  for (double angle : angles) {
+    for (int k = 0; k < 25; ++k, ++i) {
+      ShapeDef shape;
+      // Sizes and centres with no short binary form.
+      const Vec2 center = k % 5 == 0 ? Vec2::Zero() : Vec2(0.1 * k - 1.3, 0.37 * (k % 7));
+      shape.geometry = make_offset_box(0.05 + 0.11 * k, 0.7 / (k + 1), center, angle + 1e-3 * k);
+      scene.bodies[0].shapes.push_back(shape);
+    }
+  }
+  v1::Scene proto = scene_to_proto(scene);
+  int boxes = 0;
+  for (const v1::Shape& shape : proto.bodies(0).shapes()) boxes += shape.has_box() ? 1 : 0;
+  EXPECT_EQ(boxes, i);
+  ExpectJsonRoundTrip(scene);
 }
 
 // Every builtin scene survives export and re-import bit for bit.
@@ -464,6 +511,10 @@ struct BadInput {
   const char* message;  // expected substring of the error message
 };
 
+void PrintTo(const BadInput& input, std::ostream* os) {
+  *os << input.label;
+}
+
 class SceneJsonErrors : public testing::TestWithParam<BadInput> {};
 
 TEST_P(SceneJsonErrors, NameTheField) {
@@ -543,6 +594,8 @@ const BadInput kBadInputs[] = {
      "builders[0].pyramid.spacing: must be >= box_size 2 (got 1)"},
     {"PyramidTopDensity", R"({"builders": [{"pyramid": {"topDensity": 0}}]})",
      "builders[0].pyramid.top_density"},
+    {"TooManyBodies", R"({"builders": [{"pyramid": {"base": 1000}}, {"pyramid": {"base": 1000}}]})",
+     "builders[1].pyramid: the scene would have more than 1000000 bodies"},
     {"StackCount", R"({"builders": [{"stack": {"count": -1}}]})",
      "builders[0].stack.count: must be in [1, 10000] (got -1)"},
     {"GroundHalfWidth", R"({"builders": [{"ground": {}}]})",
@@ -551,6 +604,8 @@ const BadInput kBadInputs[] = {
     {"FractionalInt", R"({"builders": [{"stack": {"count": 2.5}}]})", "builders[0].stack.count"},
     {"SyntaxError", R"({"bodies": [)", ""},
     {"NotAnObject", R"([1, 2])", ""},
+    {"Null", "null", "Root element must be a message"},
+    {"Empty", " \n ", "empty scene"},
 };
 
 INSTANTIATE_TEST_SUITE_P(All, SceneJsonErrors, testing::ValuesIn(kBadInputs),

@@ -81,7 +81,7 @@ void expect_queries_match(const DynamicTree& tree, const Proxies& proxies, Rng& 
 // The tallest tree with n leaves in which every internal node's two subtrees differ in height
 // by at most 2, the invariant the tree keeps (and validate() checks). The sparsest such tree of
 // height h has N(h) = N(h - 1) + N(max(0, h - 3)) leaves, N(0) = 1, which grows like 1.4656^h:
-// h <= 1.81 log2(n) + 1. For n = 1000 the bound is 17, for n = 20000 it is 25.
+// N(h) >= 1.4656^h, so h <= 1.82 log2(n). For n = 1000 the bound is 17, for n = 20000 it is 25.
 int max_balanced_height(int n) {
   std::vector<int64_t> sparsest{1};  // N(h)
   while (true) {
@@ -289,7 +289,7 @@ TEST(DynamicTree, HeightWithinBalancedBound) {
   auto check = [](DynamicTree& tree, const char* name) {
     const int n = tree.proxy_count();
     EXPECT_TRUE(tree.validate()) << name;
-    // No binary tree is shorter than ceil(log2 n); the balance keeps it under ~1.81 log2 n.
+    // No binary tree is shorter than ceil(log2 n); the balance keeps it under ~1.82 log2 n.
     EXPECT_GE(tree.height(), ceil_log2(n)) << name;
     EXPECT_LE(tree.height(), max_balanced_height(n)) << name;
   };

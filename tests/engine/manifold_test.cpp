@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -517,35 +518,61 @@ TEST(ManifoldPolygons, FeatureIdsStableUnderTinyPerturbation) {
     const Polygon* b;
   };
   // Equal boxes (reference-face tie) and box-on-ground in both orders (A small on top, flips).
+  // Two placements of the upper box: offset and overlapping by 0.005 (resting), and exactly
+  // aligned 0.01 above (speculative; there a -1e-6 shift with a +1e-6 turn puts its lowest corner
+  // 1e-6 m outside the lower face, an exact vertex-vertex pair that must still give two points).
   for (const Case& c : {Case{&b, &b}, Case{&ground, &b}, Case{&b, &ground}}) {
-    const bool small_is_a = c.a == &b && c.b == &ground;
-    const Transform xa = small_is_a ? make_xf(0.2, 0.995) : make_xf(0, 0);
-    const Transform xb = small_is_a ? make_xf(0, 0) : make_xf(0.2, 0.995);
-    const Manifold m0 = collide_polygons(*c.a, xa, *c.b, xb, kSpeculative);
-    ASSERT_EQ(m0.count, 2);
-    const std::vector<uint32_t> ids0 = sorted_ids(m0);
-    // Shift the upper box by 1e-6 m and turn it by +-1e-6 rad (and by 1e-3 rad, which makes
-    // the ground the reference face when the small box is A).
-    for (double angle : {1e-6, -1e-6, 1e-3}) {
-      for (double shift : {1e-6, -1e-6}) {
-        Transform xa2 = xa;
-        Transform xb2 = xb;
-        Transform& upper = small_is_a ? xa2 : xb2;
-        upper = make_xf(upper.p.x() + shift, upper.p.y() + shift, angle);
-        const Manifold m1 = collide_polygons(*c.a, xa2, *c.b, xb2, kSpeculative);
-        ASSERT_EQ(m1.count, 2);
-        EXPECT_EQ(sorted_ids(m1), ids0);
-        // Same point near the same corner keeps the same id (not just the same set).
-        for (int i = 0; i < 2; ++i) {
-          for (int j = 0; j < 2; ++j) {
-            if (distance(m0.points[i].point, m1.points[j].point) < 0.01) {
-              EXPECT_EQ(m0.points[i].id, m1.points[j].id);
+    for (const Vec2& place : {Vec2(0.2, 0.995), Vec2(0.0, 1.01)}) {
+      SCOPED_TRACE("upper box at " + std::to_string(place.x()) + ", " + std::to_string(place.y()));
+      const bool small_is_a = c.a == &b && c.b == &ground;
+      const Transform xa = small_is_a ? make_xf(place.x(), place.y()) : make_xf(0, 0);
+      const Transform xb = small_is_a ? make_xf(0, 0) : make_xf(place.x(), place.y());
+      const Manifold m0 = collide_polygons(*c.a, xa, *c.b, xb, kSpeculative);
+      ASSERT_EQ(m0.count, 2);
+      const std::vector<uint32_t> ids0 = sorted_ids(m0);
+      // Shift the upper box by 1e-6 m and turn it by +-1e-6 rad (and by 1e-3 rad, which makes
+      // the ground the reference face when the small box is A).
+      for (double angle : {1e-6, -1e-6, 1e-3}) {
+        for (double shift : {1e-6, -1e-6}) {
+          Transform xa2 = xa;
+          Transform xb2 = xb;
+          Transform& upper = small_is_a ? xa2 : xb2;
+          upper = make_xf(upper.p.x() + shift, upper.p.y() + shift, angle);
+          const Manifold m1 = collide_polygons(*c.a, xa2, *c.b, xb2, kSpeculative);
+          ASSERT_EQ(m1.count, 2);
+          EXPECT_EQ(sorted_ids(m1), ids0);
+          // Same point near the same corner keeps the same id (not just the same set).
+          for (int i = 0; i < 2; ++i) {
+            for (int j = 0; j < 2; ++j) {
+              if (distance(m0.points[i].point, m1.points[j].point) < 0.01) {
+                EXPECT_EQ(m0.points[i].id, m1.points[j].id);
+              }
             }
           }
         }
       }
     }
   }
+}
+
+TEST(ManifoldPolygons, CornerJustPastTheEdgeKeepsTwoPoints) {
+  // B turned by -1e-3 rad 0.01 above an equal box, its lowest (right) corner 1e-5 m past A's
+  // right edge. The closest pair of the two faces is then corner to corner, yet this is a
+  // resting face contact: both bottom corners must be reported. The left corner lies over A at
+  // height 0.01 + sin(1e-3); the right one is clipped to A's side at x = 0.5, 1e-5 tan(1e-3)
+  // above its corner (1e-7 covers that).
+  const Polygon b = box(0.5, 0.5);
+  const double angle = -1e-3;
+  const double c = std::cos(angle);
+  const double s = std::sin(angle);
+  // Local corner (0.5, -0.5) turned: (0.5 c + 0.5 s, 0.5 s - 0.5 c).
+  const Transform xb = make_xf(0.5 + 1e-5 - (0.5 * c + 0.5 * s), 0.51 - (0.5 * s - 0.5 * c), angle);
+  const Manifold m = collide_polygons(b, make_xf(0, 0), b, xb, kSpeculative);
+  ASSERT_EQ(m.count, 2);
+  const auto pts = sorted_by_x(m);
+  EXPECT_NEAR(pts[0].separation, 0.01 - s, 1e-12);
+  EXPECT_NEAR(pts[1].separation, 0.01, 1e-7);
+  EXPECT_NEAR(pts[1].point.x(), 0.5, 1e-12);
 }
 
 TEST(ManifoldPolygons, RoundedBoxesStacked) {
@@ -586,6 +613,13 @@ TEST(ManifoldPolygons, SpeculativeBandIsReportedBeyondIsNot) {
   // Gap 0.01: inside the 0.02 speculative band, two points with positive separation.
   Manifold m = collide_polygons(b, make_xf(0, 0), b, make_xf(0.1, 1.01), kSpeculative);
   ASSERT_EQ(m.count, 2);
+  EXPECT_NEAR(m.points[0].separation, 0.01, kTol);
+  EXPECT_NEAR(m.points[1].separation, 0.01, kTol);
+  // Exactly stacked equal boxes: the closest pair of the two faces is a vertex pair, yet this is a
+  // face contact with two points.
+  m = collide_polygons(b, make_xf(0, 0), b, make_xf(0.0, 1.01), kSpeculative);
+  ASSERT_EQ(m.count, 2);
+  expect_vec_near(m.normal, Vec2(0, 1), kTol);
   EXPECT_NEAR(m.points[0].separation, 0.01, kTol);
   EXPECT_NEAR(m.points[1].separation, 0.01, kTol);
   // With a speculative distance of 0.005 the same gap is beyond: nothing.
@@ -639,6 +673,150 @@ TEST(ManifoldPolygons, SeparatedBeyondSpeculativeIsEmpty) {
   ASSERT_EQ(m.count, 1);
   EXPECT_NEAR(m.points[0].separation, 0.01 * std::sqrt(2.0), kTol);
   expect_vec_near(m.normal, Vec2(std::sqrt(0.5), std::sqrt(0.5)), kTol);
+}
+
+// --- Against brute force ---------------------------------------------------------------------
+
+// A convex polygon with 3..8 vertices on an ellipse at jittered angles (points on an ellipse are
+// in strictly convex position; the jitter keeps edges longer than kGeometryTolerance).
+Polygon random_polygon(std::mt19937_64& rng, double radius) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const int n = 3 + static_cast<int>(rng() % 6);
+  const double ax = 0.2 + 1.3 * unit(rng);
+  const double ay = 0.2 + 1.3 * unit(rng);
+  const double phase = 2.0 * kPi * unit(rng);
+  std::vector<Vec2> v;
+  for (int k = 0; k < n; ++k) {
+    const double angle = phase + 2.0 * kPi * (k + 0.4 * (unit(rng) - 0.5)) / n;
+    v.push_back(Vec2(ax * std::cos(angle), ay * std::sin(angle)));
+  }
+  return make_test_polygon(v, radius);
+}
+
+double point_segment_distance(const Vec2& p, const Vec2& a, const Vec2& b) {
+  const Vec2 d = b - a;
+  const double t = std::clamp(dot(p - a, d) / dot(d, d), 0.0, 1.0);
+  return distance(p, a + t * d);
+}
+
+// Whether two convex cores (polygons, segments as 2 points, points as 1) overlap: no edge
+// normal of either separates them. For a point or segment against a polygon these axes are
+// complete; random segments are never exactly collinear.
+bool cores_overlap(const std::vector<Vec2>& a, const std::vector<Vec2>& b) {
+  auto separates = [](const std::vector<Vec2>& p, const std::vector<Vec2>& q) {
+    if (p.size() < 2) return false;
+    for (size_t i = 0; i < p.size(); ++i) {
+      const Vec2 n = right_perp(p[(i + 1) % p.size()] - p[i]);
+      double lowest = 1e300;
+      for (const Vec2& w : q) lowest = std::min(lowest, dot(n, w - p[i]));
+      if (lowest > 0.0) return true;
+    }
+    return false;
+  };
+  return !separates(a, b) && !separates(b, a);
+}
+
+// Distance between disjoint convex cores: attained at a vertex of one against an edge of the
+// other.
+double core_distance(const std::vector<Vec2>& a, const std::vector<Vec2>& b) {
+  double d = 1e300;
+  for (size_t i = 0; i < a.size(); ++i) {
+    for (size_t j = 0; j < b.size(); ++j) {
+      d = std::min(d, point_segment_distance(a[i], b[j], b[(j + 1) % b.size()]));
+      d = std::min(d, point_segment_distance(b[j], a[i], a[(i + 1) % a.size()]));
+    }
+  }
+  return d;
+}
+
+TEST(ManifoldBruteForce, RandomPairsNeverMissAndMatchTheTrueDistance) {
+  // Random polygon-polygon, capsule-capsule, polygon-capsule and polygon-circle pairs with and
+  // without rounding. For separated cores the surface distance d is brute-forced. Facts checked:
+  // no contact within the speculative band is missed, overlapping cores always give a point, and
+  // the smallest reported separation is never below d (beyond rounding, 1e-9) and exceeds it
+  // by at most 1e-3 m. The excess comes from the documented approximations (a reference face
+  // kept within 0.1 slop of the best one; heights along A's normal for nearly parallel
+  // capsules), measured below 8e-4 m over 300,000 such cases.
+  std::mt19937_64 rng(20240611);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  auto uniform = [&](double lo, double hi) { return lo + (hi - lo) * unit(rng); };
+  auto random_xf = [&](double extent) {
+    return make_xf(uniform(-extent, extent), uniform(-extent, extent), uniform(-kPi, kPi));
+  };
+  auto random_capsule = [&]() {
+    return Capsule{Vec2(uniform(-1.0, 0.0), uniform(-0.2, 0.2)),
+                   Vec2(uniform(0.1, 1.0), uniform(-0.2, 0.2)), uniform(0.01, 0.3)};
+  };
+  const double speculative = 0.05;
+  int near_contacts = 0;
+  for (int iteration = 0; iteration < 40000; ++iteration) {
+    const int kind = iteration % 4;
+    SCOPED_TRACE("iteration " + std::to_string(iteration));
+    const Polygon pa = random_polygon(rng, rng() % 2 ? uniform(0.0, 0.2) : 0.0);
+    const Polygon pb = random_polygon(rng, rng() % 2 ? uniform(0.0, 0.2) : 0.0);
+    const Capsule ca = random_capsule();
+    const Capsule cb = random_capsule();
+    const Circle circle{Vec2(uniform(-0.3, 0.3), uniform(-0.3, 0.3)), uniform(0.01, 0.5)};
+    const Transform xa = random_xf(0.3);
+    const Transform xb = random_xf(3.0);
+
+    std::vector<Vec2> core_a;
+    std::vector<Vec2> core_b;
+    double radii = 0.0;
+    Manifold m;
+    auto polygon_core = [](const Polygon& p, const Transform& xf) {
+      std::vector<Vec2> out;
+      for (int i = 0; i < p.count; ++i) out.push_back(xf.apply(p.vertices[i]));
+      return out;
+    };
+    switch (kind) {
+      case 0:
+        core_a = polygon_core(pa, xa);
+        core_b = polygon_core(pb, xb);
+        radii = pa.radius + pb.radius;
+        m = collide_polygons(pa, xa, pb, xb, speculative);
+        break;
+      case 1:
+        core_a = {xa.apply(ca.center1), xa.apply(ca.center2)};
+        core_b = {xb.apply(cb.center1), xb.apply(cb.center2)};
+        radii = ca.radius + cb.radius;
+        m = collide_capsules(ca, xa, cb, xb, speculative);
+        break;
+      case 2:
+        core_a = polygon_core(pa, xa);
+        core_b = {xb.apply(cb.center1), xb.apply(cb.center2)};
+        radii = pa.radius + cb.radius;
+        m = collide_polygon_and_capsule(pa, xa, cb, xb, speculative);
+        break;
+      default:
+        core_a = polygon_core(pa, xa);
+        core_b = {xb.apply(circle.center)};
+        radii = pa.radius + circle.radius;
+        m = collide_polygon_and_circle(pa, xa, circle, xb, speculative);
+        break;
+    }
+    ASSERT_GE(m.count, 0);
+    ASSERT_LE(m.count, 2);
+    if (m.count > 0) {
+      ASSERT_NEAR(length(m.normal), 1.0, 1e-12);
+    }
+    for (int i = 0; i < m.count; ++i) ASSERT_LT(m.points[i].separation, speculative);
+
+    if (cores_overlap(core_a, core_b)) {
+      ASSERT_GE(m.count, 1);
+      continue;
+    }
+    const double d = core_distance(core_a, core_b) - radii;
+    if (d >= speculative) continue;
+    ASSERT_GE(m.count, 1) << "missed a contact at distance " << d;
+    double smallest = 1e300;
+    for (int i = 0; i < m.count; ++i) smallest = std::min(smallest, m.points[i].separation);
+    ASSERT_GE(smallest, d - 1e-9);
+    ASSERT_LE(smallest, d + 1e-3);
+    ++near_contacts;
+  }
+  // Make sure the sample actually exercised the band (about 5% of the pairs land in it).
+  EXPECT_GT(near_contacts, 500);
 }
 
 }  // namespace

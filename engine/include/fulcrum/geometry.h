@@ -53,7 +53,9 @@ const char* shape_type_name(ShapeType type);
 
 // One shape's geometry, whichever kind it is. The variant index equals ShapeType.
 using Geometry = std::variant<Circle, Capsule, Segment, Polygon>;
-inline ShapeType geometry_type(const Geometry& g) { return static_cast<ShapeType>(g.index()); }
+inline ShapeType geometry_type(const Geometry& g) {
+  return static_cast<ShapeType>(g.index());
+}
 
 struct MassData {
   double mass = 0.0;                // kg
@@ -85,7 +87,7 @@ Status validate_geometry(const Geometry& g, const char* field = "shape");
 
 MassData compute_mass(const Circle& c, double density);
 MassData compute_mass(const Capsule& c, double density);
-MassData compute_mass(const Polygon& p, double density);  // includes the rounding radius
+MassData compute_mass(const Polygon& p, double density);   // includes the rounding radius
 MassData compute_mass(const Geometry& g, double density);  // segments have no mass
 
 // --- Bounds, ray casts and point tests -------------------------------------------------------

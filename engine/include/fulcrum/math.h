@@ -13,19 +13,41 @@ using Vec2 = Eigen::Vector2d;
 using Mat22 = Eigen::Matrix2d;
 
 // 2D cross product of two vectors: the z component of (a, 0) x (b, 0).
-inline double cross(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
+inline double cross(const Vec2& a, const Vec2& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
 // a x (0, 0, s): the vector a turned clockwise and scaled by s.
-inline Vec2 cross(const Vec2& a, double s) { return Vec2(s * a.y(), -s * a.x()); }
+inline Vec2 cross(const Vec2& a, double s) {
+  return Vec2(s * a.y(), -s * a.x());
+}
 // (0, 0, s) x a: the vector a turned counter-clockwise and scaled by s (w x r for a spin w).
-inline Vec2 cross(double s, const Vec2& a) { return Vec2(-s * a.y(), s * a.x()); }
-inline Vec2 left_perp(const Vec2& v) { return Vec2(-v.y(), v.x()); }
-inline Vec2 right_perp(const Vec2& v) { return Vec2(v.y(), -v.x()); }
-inline double dot(const Vec2& a, const Vec2& b) { return a.x() * b.x() + a.y() * b.y(); }
-inline double length_squared(const Vec2& v) { return v.x() * v.x() + v.y() * v.y(); }
-inline double length(const Vec2& v) { return std::sqrt(length_squared(v)); }
-inline double distance(const Vec2& a, const Vec2& b) { return length(b - a); }
-inline double distance_squared(const Vec2& a, const Vec2& b) { return length_squared(b - a); }
-inline Vec2 lerp(const Vec2& a, const Vec2& b, double t) { return a + t * (b - a); }
+inline Vec2 cross(double s, const Vec2& a) {
+  return Vec2(-s * a.y(), s * a.x());
+}
+inline Vec2 left_perp(const Vec2& v) {
+  return Vec2(-v.y(), v.x());
+}
+inline Vec2 right_perp(const Vec2& v) {
+  return Vec2(v.y(), -v.x());
+}
+inline double dot(const Vec2& a, const Vec2& b) {
+  return a.x() * b.x() + a.y() * b.y();
+}
+inline double length_squared(const Vec2& v) {
+  return v.x() * v.x() + v.y() * v.y();
+}
+inline double length(const Vec2& v) {
+  return std::sqrt(length_squared(v));
+}
+inline double distance(const Vec2& a, const Vec2& b) {
+  return length(b - a);
+}
+inline double distance_squared(const Vec2& a, const Vec2& b) {
+  return length_squared(b - a);
+}
+inline Vec2 lerp(const Vec2& a, const Vec2& b, double t) {
+  return a + t * (b - a);
+}
 
 // Unit vector along v, or zero when v is (nearly) zero.
 inline Vec2 normalize_or_zero(const Vec2& v) {
@@ -34,8 +56,12 @@ inline Vec2 normalize_or_zero(const Vec2& v) {
   return v / len;
 }
 
-inline bool is_finite(double x) { return std::isfinite(x); }
-inline bool is_finite(const Vec2& v) { return std::isfinite(v.x()) && std::isfinite(v.y()); }
+inline bool is_finite(double x) {
+  return std::isfinite(x);
+}
+inline bool is_finite(const Vec2& v) {
+  return std::isfinite(v.x()) && std::isfinite(v.y());
+}
 
 // A rotation as the unit complex number (c, s) = (cos angle, sin angle).
 struct Rot {
@@ -48,7 +74,9 @@ struct Rot {
   double angle() const;
 
   Vec2 rotate(const Vec2& v) const { return Vec2(c * v.x() - s * v.y(), s * v.x() + c * v.y()); }
-  Vec2 inv_rotate(const Vec2& v) const { return Vec2(c * v.x() + s * v.y(), -s * v.x() + c * v.y()); }
+  Vec2 inv_rotate(const Vec2& v) const {
+    return Vec2(c * v.x() + s * v.y(), -s * v.x() + c * v.y());
+  }
   Vec2 x_axis() const { return Vec2(c, s); }
   Vec2 y_axis() const { return Vec2(-s, c); }
 

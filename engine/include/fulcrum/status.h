@@ -75,8 +75,8 @@ class [[nodiscard]] Result {
 }  // namespace fulcrum
 
 // Returns the Status of `expr` from the enclosing function when it is an error.
-#define FULCRUM_RETURN_IF_ERROR(expr)               \
-  do {                                              \
-    ::fulcrum::Status fulcrum_status_ = (expr);     \
+#define FULCRUM_RETURN_IF_ERROR(expr)                  \
+  do {                                                 \
+    ::fulcrum::Status fulcrum_status_ = (expr);        \
     if (!fulcrum_status_.ok()) return fulcrum_status_; \
   } while (false)

@@ -87,18 +87,30 @@ struct WorldSettings {
   Vec2 gravity = Vec2(0.0, -10.0);  // m/s^2
   double dt = 1.0 / 60.0;           // s, > 0: the length of one tick
 
-  // Solver.
-  int velocity_iterations = 8;         // >= 1: sequential-impulse passes over all rows
-  int position_iterations = 3;         // >= 0: pseudo-velocity passes (split impulses only)
-  bool split_impulses = true;          // position error fixed on pseudo velocities (no bounce)
-  double baumgarte = 0.2;              // [0, 1]: fraction of the position error fixed per tick
-  double linear_slop = 0.005;          // m, >= 0: penetration allowed before correcting
-  double max_correction_speed = 3.0;   // m/s, > 0: cap on the position-correction speed
-  double restitution_threshold = 1.0;  // m/s, >= 0: slower approaches do not bounce
-  double early_exit_tolerance = 0.0;   // N s, >= 0: stop iterating when every corrective
-                                       // impulse is below this (0: always run all passes)
-  bool warm_starting = true;           // start each tick from last tick's impulses
-  bool block_solver = true;            // solve two-point manifolds' normal rows together
+  // Solver. Each tick is split into `substeps` substeps; each substep integrates velocities,
+  // warm starts, runs `velocity_iterations` passes with position feedback, integrates
+  // positions, then runs `relax_iterations` passes without it (removing the feedback's
+  // velocity). Position feedback is soft (a spring of contact_hertz with
+  // contact_damping_ratio, Catto's soft step) or, with contact_hertz = 0, rigid Baumgarte with
+  // slop, optionally on pseudo velocities (split impulses). The talk's classic sequential
+  // impulses are substeps = 1, velocity_iterations = 8, relax_iterations = 0,
+  // contact_hertz = 0.
+  int substeps = 4;                     // >= 1
+  int velocity_iterations = 2;          // >= 1: passes over all rows per substep
+  int relax_iterations = 1;             // >= 0: passes without position feedback per substep
+  double contact_hertz = 45.0;          // Hz, >= 0: stiffness of soft contacts (0: rigid)
+  double contact_damping_ratio = 10.0;  // >= 0: damping of soft contacts
+  int position_iterations = 3;          // >= 0: pseudo-velocity passes (split impulses only)
+  bool split_impulses = false;          // rigid mode: position error fixed on pseudo velocities
+  double baumgarte = 0.2;               // [0, 1]: rigid mode: error fraction fixed per substep
+  double linear_slop = 0.005;           // m, >= 0: rigid mode: overlap tolerated before
+                                        // correcting; soft contacts correct all overlap
+  double max_correction_speed = 1.5;    // m/s, > 0: cap on the position-correction speed
+  double restitution_threshold = 1.0;   // m/s, >= 0: slower approaches do not bounce
+  double early_exit_tolerance = 0.0;    // N s, >= 0: stop a substep's passes when every
+                                        // corrective impulse is below this (0: run them all)
+  bool warm_starting = true;            // start each substep from the last one's impulses
+  bool block_solver = true;             // rigid mode: two-point normal rows solved together
 
   // Collision.
   double speculative_distance = 0.02;  // m, >= 0: contact points kept up to this separation

@@ -59,14 +59,14 @@ struct WorldMetrics {
   int64_t tick = 0;
   int body_count = 0;
   int awake_body_count = 0;
-  int contact_count = 0;            // touching, non-sensor manifolds
-  double max_penetration = 0.0;     // largest overlap over all contact points, m (>= 0)
-  double mean_penetration = 0.0;    // mean overlap over overlapping contact points, m
-  double kinetic_energy = 0.0;      // J
-  double potential_energy = 0.0;    // J, m g . x summed (relative to the origin)
+  int contact_count = 0;                // touching, non-sensor manifolds
+  double max_penetration = 0.0;         // largest overlap over all contact points, m (>= 0)
+  double mean_penetration = 0.0;        // mean overlap over overlapping contact points, m
+  double kinetic_energy = 0.0;          // J
+  double potential_energy = 0.0;        // J, m g . x summed (relative to the origin)
   Vec2 linear_momentum = Vec2::Zero();  // kg m/s
-  double angular_momentum = 0.0;    // about the origin, kg m^2/s
-  double max_speed = 0.0;           // largest linear speed of any body, m/s
+  double angular_momentum = 0.0;        // about the origin, kg m^2/s
+  double max_speed = 0.0;               // largest linear speed of any body, m/s
 };
 
 struct QueryFilter {
