@@ -38,22 +38,42 @@ Softness make_softness(double hertz, double zeta, double h) {
   return Softness{omega / a1, a2 * a3, a3};
 }
 
-inline Vec2 relative_velocity(const SolverBody& a, const SolverBody& b, const ContactPointRow& p) {
-  return b.v + cross(b.w, p.rb) - a.v - cross(a.w, p.ra);
+// The row math below is written on plain doubles: (v + w x r) = (vx - w ry, vy + w rx) and
+// r x P = rx Py - ry Px.
+
+// Relative velocity of the contact point, B minus A.
+inline void relative_velocity(const SolverBody& a, const SolverBody& b, const ContactPointRow& p,
+                              double* dvx, double* dvy) {
+  *dvx = (b.vx - b.w * p.rby) - (a.vx - a.w * p.ray);
+  *dvy = (b.vy + b.w * p.rbx) - (a.vy + a.w * p.rax);
 }
 
-inline void apply_impulse(SolverBody& a, SolverBody& b, const ContactPointRow& p, const Vec2& P) {
-  a.v -= a.inv_mass * P;
-  a.w -= a.inv_inertia * cross(p.ra, P);
-  b.v += b.inv_mass * P;
-  b.w += b.inv_inertia * cross(p.rb, P);
+inline double normal_speed(const SolverBody& a, const SolverBody& b, const ContactPointRow& p,
+                           double nx, double ny) {
+  double dvx, dvy;
+  relative_velocity(a, b, p, &dvx, &dvy);
+  return dvx * nx + dvy * ny;
 }
 
-// Separation now, from the bodies' motion since the tick began.
+// P applied to B at rb and -P to A at ra.
+inline void apply_impulse(SolverBody& a, SolverBody& b, const ContactPointRow& p, double px,
+                          double py) {
+  a.vx -= a.inv_mass * px;
+  a.vy -= a.inv_mass * py;
+  a.w -= a.inv_inertia * (p.rax * py - p.ray * px);
+  b.vx += b.inv_mass * px;
+  b.vy += b.inv_mass * py;
+  b.w += b.inv_inertia * (p.rbx * py - p.rby * px);
+}
+
+// Separation now, from the bodies' motion since the tick began (anchors turned with them).
 inline double current_separation(const SolverBody& a, const SolverBody& b, const ContactPointRow& p,
-                                 const Vec2& n) {
-  Vec2 d = (b.dp - a.dp) + (b.dq.rotate(p.rb) - a.dq.rotate(p.ra));
-  return dot(d, n) + p.base_separation;
+                                 double nx, double ny) {
+  double ax = a.qc * p.rax - a.qs * p.ray, ay = a.qs * p.rax + a.qc * p.ray;
+  double bx = b.qc * p.rbx - b.qs * p.rby, by = b.qs * p.rbx + b.qc * p.rby;
+  double dx = (b.dpx - a.dpx) + (bx - ax);
+  double dy = (b.dpy - a.dpy) + (by - ay);
+  return dx * nx + dy * ny + p.base_separation;
 }
 
 // Gathers the awake, touching, solid contacts in id order.
@@ -82,7 +102,8 @@ void load_bodies(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s) 
     s.body_slot[awake[k]] = static_cast<int>(k + 1);
     SolverBody& sb = s.bodies[k + 1];
     sb = SolverBody{};
-    sb.v = b.v;
+    sb.vx = b.v.x();
+    sb.vy = b.v.y();
     sb.w = b.w;
     sb.inv_mass = b.inv_mass;
     sb.inv_inertia = b.inv_inertia;
@@ -90,21 +111,31 @@ void load_bodies(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s) 
 }
 
 // Step 1: applied forces into velocities, v2 = v1 + h M^-1 F, then damping as the decay
-// factor 1 / (1 + h c), which stays stable for any damping.
+// factor 1 / (1 + h c), which stays stable for any damping. Speeds are clamped.
 void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s, double h) {
-  const Vec2 g = w.settings.gravity;
+  const double gx = w.settings.gravity.x(), gy = w.settings.gravity.y();
   const double max_speed = w.settings.max_linear_speed;
   for (size_t k = 0; k < awake.size(); ++k) {
     const Body& b = w.bodies[awake[k]];
     if (!b.is_dynamic()) continue;
     SolverBody& sb = s.bodies[k + 1];
-    Vec2 v = sb.v + h * (b.inv_mass * b.force + b.gravity_scale * g);
+    double vx = sb.vx + h * (b.inv_mass * b.force.x() + b.gravity_scale * gx);
+    double vy = sb.vy + h * (b.inv_mass * b.force.y() + b.gravity_scale * gy);
     double av = sb.w + h * b.inv_inertia * b.torque;
-    if (b.linear_damping != 0.0) v *= 1.0 / (1.0 + h * b.linear_damping);
+    if (b.linear_damping != 0.0) {
+      double f = 1.0 / (1.0 + h * b.linear_damping);
+      vx *= f;
+      vy *= f;
+    }
     if (b.angular_damping != 0.0) av *= 1.0 / (1.0 + h * b.angular_damping);
-    double speed2 = length_squared(v);
-    if (speed2 > max_speed * max_speed) v *= max_speed / std::sqrt(speed2);
-    sb.v = v;
+    double speed2 = vx * vx + vy * vy;
+    if (speed2 > max_speed * max_speed) {
+      double f = max_speed / std::sqrt(speed2);
+      vx *= f;
+      vy *= f;
+    }
+    sb.vx = vx;
+    sb.vy = vy;
     sb.w = av;
   }
 }
@@ -115,49 +146,57 @@ void prepare(WorldImpl& w, SolverScratch& s, double h) {
   // Contacts against immovable bodies take the push-out alone: twice as stiff.
   const Softness static_soft = make_softness(2.0 * set.contact_hertz, set.contact_damping_ratio, h);
   const bool rigid = set.contact_hertz == 0.0;
-  s.rows.resize(s.contacts.size());
-  for (size_t k = 0; k < s.contacts.size(); ++k) {
+  const size_t n_rows = s.contacts.size();
+  s.rows.resize(n_rows);
+  s.extras.resize(n_rows);
+  s.restitution_rows.clear();
+  for (size_t k = 0; k < n_rows; ++k) {
     const Contact& c = w.contacts[s.contacts[k]];
     const Body& body_a = w.bodies[c.body_a];
     const Body& body_b = w.bodies[c.body_b];
     ContactRow& row = s.rows[k];
-    row.contact = s.contacts[k];
+    ContactRowExtra& extra = s.extras[k];
+    extra.contact = s.contacts[k];
+    extra.restitution = c.restitution;
+    if (c.restitution != 0.0) s.restitution_rows.push_back(static_cast<int>(k));
     row.ia = body_a.awake ? s.body_slot[c.body_a] : 0;
     row.ib = body_b.awake ? s.body_slot[c.body_b] : 0;
-    row.normal = c.manifold.normal;
+    row.nx = c.manifold.normal.x();
+    row.ny = c.manifold.normal.y();
     row.friction = c.friction;
-    row.restitution = c.restitution;
     row.count = c.manifold.count;
     const SolverBody& a = s.bodies[row.ia];
     const SolverBody& b = s.bodies[row.ib];
     row.softness = (a.inv_mass == 0.0 || b.inv_mass == 0.0) ? static_soft : soft;
-    const Vec2 n = row.normal;
-    const Vec2 t = right_perp(n);
+    const double nx = row.nx, ny = row.ny;
+    const double tx = ny, ty = -nx;
+    const double m = a.inv_mass + b.inv_mass;
     for (int i = 0; i < row.count; ++i) {
       const ManifoldPoint& mp = c.manifold.points[i];
       ContactPointRow& p = row.points[i];
-      p.ra = mp.point - body_a.center;
-      p.rb = mp.point - body_b.center;
-      p.base_separation = mp.separation - dot(p.rb - p.ra, n);
-      double rna = cross(p.ra, n), rnb = cross(p.rb, n);
-      double kn = a.inv_mass + b.inv_mass + a.inv_inertia * rna * rna + b.inv_inertia * rnb * rnb;
+      p.rax = mp.point.x() - body_a.center.x();
+      p.ray = mp.point.y() - body_a.center.y();
+      p.rbx = mp.point.x() - body_b.center.x();
+      p.rby = mp.point.y() - body_b.center.y();
+      p.base_separation = mp.separation - ((p.rbx - p.rax) * nx + (p.rby - p.ray) * ny);
+      double rna = p.rax * ny - p.ray * nx, rnb = p.rbx * ny - p.rby * nx;
+      double kn = m + a.inv_inertia * rna * rna + b.inv_inertia * rnb * rnb;
       p.normal_mass = kn > 0.0 ? 1.0 / kn : 0.0;
-      double rta = cross(p.ra, t), rtb = cross(p.rb, t);
-      double kt = a.inv_mass + b.inv_mass + a.inv_inertia * rta * rta + b.inv_inertia * rtb * rtb;
+      double rta = p.rax * ty - p.ray * tx, rtb = p.rbx * ty - p.rby * tx;
+      double kt = m + a.inv_inertia * rta * rta + b.inv_inertia * rtb * rtb;
       p.tangent_mass = kt > 0.0 ? 1.0 / kt : 0.0;
-      p.approach_speed = dot(relative_velocity(a, b, p), n);
       p.normal_impulse = set.warm_starting ? mp.normal_impulse : 0.0;
       p.tangent_impulse = set.warm_starting ? mp.tangent_impulse : 0.0;
-      p.pseudo_impulse = 0.0;
       p.max_normal_impulse = 0.0;
+      extra.approach_speed[i] = normal_speed(a, b, p, nx, ny);
+      extra.pseudo_impulse[i] = 0.0;
     }
     row.block = false;
     if (rigid && row.count == 2 && set.block_solver) {
       const ContactPointRow& p1 = row.points[0];
       const ContactPointRow& p2 = row.points[1];
-      double rn1a = cross(p1.ra, n), rn1b = cross(p1.rb, n);
-      double rn2a = cross(p2.ra, n), rn2b = cross(p2.rb, n);
-      double m = a.inv_mass + b.inv_mass;
+      double rn1a = p1.rax * ny - p1.ray * nx, rn1b = p1.rbx * ny - p1.rby * nx;
+      double rn2a = p2.rax * ny - p2.ray * nx, rn2b = p2.rbx * ny - p2.rby * nx;
       double k11 = m + a.inv_inertia * rn1a * rn1a + b.inv_inertia * rn1b * rn1b;
       double k22 = m + a.inv_inertia * rn2a * rn2a + b.inv_inertia * rn2b * rn2b;
       double k12 = m + a.inv_inertia * rn1a * rn2a + b.inv_inertia * rn1b * rn2b;
@@ -165,9 +204,13 @@ void prepare(WorldImpl& w, SolverScratch& s, double h) {
       // Only when K is well conditioned; otherwise the two rows are solved one by one.
       if (k11 * k11 < 1000.0 * det) {
         row.block = true;
-        row.k << k11, k12, k12, k22;
         double inv_det = 1.0 / det;
-        row.k_inverse << k22 * inv_det, -k12 * inv_det, -k12 * inv_det, k11 * inv_det;
+        extra.k11 = k11;
+        extra.k12 = k12;
+        extra.k22 = k22;
+        extra.i11 = k22 * inv_det;
+        extra.i12 = -k12 * inv_det;
+        extra.i22 = k11 * inv_det;
       }
     }
   }
@@ -178,31 +221,30 @@ void prepare(WorldImpl& w, SolverScratch& s, double h) {
 // at speed sqrt(v0^2 - 2 a s) (v^2 = v0^2 + 2 a (gap - s) at gap = 0): the exact impact speed
 // of the continuous motion, instead of a speed up to |a| h too slow.
 void record_speed_before(SolverScratch& s) {
-  for (ContactRow& row : s.rows) {
-    if (row.restitution == 0.0) continue;
-    const SolverBody& a = s.bodies[row.ia];
-    const SolverBody& b = s.bodies[row.ib];
+  for (int k : s.restitution_rows) {
+    const ContactRow& row = s.rows[k];
     for (int i = 0; i < row.count; ++i) {
-      ContactPointRow& p = row.points[i];
-      p.speed_before = dot(relative_velocity(a, b, p), row.normal);
+      s.extras[k].speed_before[i] =
+          normal_speed(s.bodies[row.ia], s.bodies[row.ib], row.points[i], row.nx, row.ny);
     }
   }
 }
 
 void track_approach(SolverScratch& s, double inv_h) {
-  for (ContactRow& row : s.rows) {
-    if (row.restitution == 0.0) continue;
+  for (int k : s.restitution_rows) {
+    const ContactRow& row = s.rows[k];
+    ContactRowExtra& extra = s.extras[k];
     const SolverBody& a = s.bodies[row.ia];
     const SolverBody& b = s.bodies[row.ib];
     for (int i = 0; i < row.count; ++i) {
-      ContactPointRow& p = row.points[i];
-      double v0 = p.speed_before;
-      double v1 = dot(relative_velocity(a, b, p), row.normal);
-      double gap = std::max(current_separation(a, b, p, row.normal), 0.0);
+      const ContactPointRow& p = row.points[i];
+      double v0 = extra.speed_before[i];
+      double v1 = normal_speed(a, b, p, row.nx, row.ny);
+      double gap = std::max(current_separation(a, b, p, row.nx, row.ny), 0.0);
       double accel = (v1 - v0) * inv_h;
       double impact = -std::sqrt(std::max(v0 * v0 - 2.0 * accel * gap, 0.0));
       double speed = v0 < 0.0 || accel < 0.0 ? std::min(v1, impact) : v1;
-      p.approach_speed = std::min(p.approach_speed, speed);
+      extra.approach_speed[i] = std::min(extra.approach_speed[i], speed);
     }
   }
 }
@@ -211,10 +253,12 @@ void warm_start(SolverScratch& s) {
   for (ContactRow& row : s.rows) {
     SolverBody& a = s.bodies[row.ia];
     SolverBody& b = s.bodies[row.ib];
-    const Vec2 t = right_perp(row.normal);
     for (int i = 0; i < row.count; ++i) {
       const ContactPointRow& p = row.points[i];
-      apply_impulse(a, b, p, p.normal_impulse * row.normal + p.tangent_impulse * t);
+      // P = lambda_n n + lambda_t t, with t = (ny, -nx).
+      double px = p.normal_impulse * row.nx + p.tangent_impulse * row.ny;
+      double py = p.normal_impulse * row.ny - p.tangent_impulse * row.nx;
+      apply_impulse(a, b, p, px, py);
     }
   }
 }
@@ -251,74 +295,82 @@ inline void normal_bias(const BiasRule& r, const Softness& soft, double s, doubl
 // Both normal rows of a two-point manifold as one 2x2 mixed linear complementarity problem,
 // solved by enumerating its four cases (Box2D 2.x's block solver): find x >= 0 with
 // v = K x + b >= 0 and x_i v_i = 0, where b is the row velocity error at zero impulse.
-double solve_block(ContactRow& row, SolverBody& a, SolverBody& b, const BiasRule& rule) {
+double solve_block(ContactRow& row, const ContactRowExtra& e, SolverBody& a, SolverBody& b,
+                   const BiasRule& rule) {
   ContactPointRow& p1 = row.points[0];
   ContactPointRow& p2 = row.points[1];
-  const Vec2 n = row.normal;
+  const double nx = row.nx, ny = row.ny;
   double bias1, bias2, ms, is;
-  normal_bias(rule, row.softness, current_separation(a, b, p1, n), &bias1, &ms, &is);
-  normal_bias(rule, row.softness, current_separation(a, b, p2, n), &bias2, &ms, &is);
-  Vec2 acc(p1.normal_impulse, p2.normal_impulse);
-  Vec2 vn(dot(relative_velocity(a, b, p1), n) + bias1, dot(relative_velocity(a, b, p2), n) + bias2);
-  Vec2 rhs = vn - row.k * acc;
-  Vec2 x;
+  normal_bias(rule, row.softness, current_separation(a, b, p1, nx, ny), &bias1, &ms, &is);
+  normal_bias(rule, row.softness, current_separation(a, b, p2, nx, ny), &bias2, &ms, &is);
+  double a1 = p1.normal_impulse, a2 = p2.normal_impulse;
+  double b1 = normal_speed(a, b, p1, nx, ny) + bias1 - (e.k11 * a1 + e.k12 * a2);
+  double b2 = normal_speed(a, b, p2, nx, ny) + bias2 - (e.k12 * a1 + e.k22 * a2);
+  double x1, x2;
   for (;;) {
-    x = -(row.k_inverse * rhs);  // both rows active
-    if (x.x() >= 0.0 && x.y() >= 0.0) break;
-    x = Vec2(-p1.normal_mass * rhs.x(), 0.0);  // only row 1 active
-    if (x.x() >= 0.0 && row.k(1, 0) * x.x() + rhs.y() >= 0.0) break;
-    x = Vec2(0.0, -p2.normal_mass * rhs.y());  // only row 2 active
-    if (x.y() >= 0.0 && row.k(0, 1) * x.y() + rhs.x() >= 0.0) break;
-    x = Vec2::Zero();  // neither active
-    if (rhs.x() >= 0.0 && rhs.y() >= 0.0) break;
+    x1 = -(e.i11 * b1 + e.i12 * b2);  // both rows active
+    x2 = -(e.i12 * b1 + e.i22 * b2);
+    if (x1 >= 0.0 && x2 >= 0.0) break;
+    x1 = -p1.normal_mass * b1;  // only row 1 active
+    x2 = 0.0;
+    if (x1 >= 0.0 && e.k12 * x1 + b2 >= 0.0) break;
+    x1 = 0.0;  // only row 2 active
+    x2 = -p2.normal_mass * b2;
+    if (x2 >= 0.0 && e.k12 * x2 + b1 >= 0.0) break;
+    x1 = x2 = 0.0;  // neither active
+    if (b1 >= 0.0 && b2 >= 0.0) break;
     return 0.0;  // no case fits (rounding); leave the impulses as they are
   }
-  Vec2 d = x - acc;
-  apply_impulse(a, b, p1, d.x() * n);
-  apply_impulse(a, b, p2, d.y() * n);
-  p1.normal_impulse = x.x();
-  p2.normal_impulse = x.y();
-  p1.max_normal_impulse = std::max(p1.max_normal_impulse, x.x());
-  p2.max_normal_impulse = std::max(p2.max_normal_impulse, x.y());
-  return std::max(std::abs(d.x()), std::abs(d.y()));
+  double d1 = x1 - a1, d2 = x2 - a2;
+  apply_impulse(a, b, p1, d1 * nx, d1 * ny);
+  apply_impulse(a, b, p2, d2 * nx, d2 * ny);
+  p1.normal_impulse = x1;
+  p2.normal_impulse = x2;
+  p1.max_normal_impulse = std::max(p1.max_normal_impulse, x1);
+  p2.max_normal_impulse = std::max(p2.max_normal_impulse, x2);
+  return std::max(std::abs(d1), std::abs(d2));
 }
 
 // One pass over all rows; returns the largest corrective impulse.
 double solve_contacts(SolverScratch& s, const BiasRule& rule) {
   double largest = 0.0;
-  for (ContactRow& row : s.rows) {
+  const size_t n_rows = s.rows.size();
+  for (size_t k = 0; k < n_rows; ++k) {
+    ContactRow& row = s.rows[k];
     SolverBody& a = s.bodies[row.ia];
     SolverBody& b = s.bodies[row.ib];
-    const Vec2 n = row.normal;
+    const double nx = row.nx, ny = row.ny;
     if (row.block) {
-      largest = std::max(largest, solve_block(row, a, b, rule));
+      largest = std::max(largest, solve_block(row, s.extras[k], a, b, rule));
     } else {
       for (int i = 0; i < row.count; ++i) {
         ContactPointRow& p = row.points[i];
         double bias, mass_scale, impulse_scale;
-        normal_bias(rule, row.softness, current_separation(a, b, p, n), &bias, &mass_scale,
+        normal_bias(rule, row.softness, current_separation(a, b, p, nx, ny), &bias, &mass_scale,
                     &impulse_scale);
-        double vn = dot(relative_velocity(a, b, p), n);
+        double vn = normal_speed(a, b, p, nx, ny);
         double lambda =
             -p.normal_mass * mass_scale * (vn + bias) - impulse_scale * p.normal_impulse;
         double acc = std::max(p.normal_impulse + lambda, 0.0);
         lambda = acc - p.normal_impulse;
         p.normal_impulse = acc;
         p.max_normal_impulse = std::max(p.max_normal_impulse, acc);
-        apply_impulse(a, b, p, lambda * n);
+        apply_impulse(a, b, p, lambda * nx, lambda * ny);
         largest = std::max(largest, std::abs(lambda));
       }
     }
-    // Friction, bounded by the normal impulses just found.
-    const Vec2 t = right_perp(n);
+    // Friction along t = (ny, -nx), bounded by the normal impulses just found.
+    const double tx = ny, ty = -nx;
     for (int i = 0; i < row.count; ++i) {
       ContactPointRow& p = row.points[i];
-      double lambda = -p.tangent_mass * dot(relative_velocity(a, b, p), t);
+      double dvx, dvy;
+      relative_velocity(a, b, p, &dvx, &dvy);
+      double lambda = -p.tangent_mass * (dvx * tx + dvy * ty);
       double limit = row.friction * p.normal_impulse;
       double acc = std::clamp(p.tangent_impulse + lambda, -limit, limit);
       lambda = acc - p.tangent_impulse;
       p.tangent_impulse = acc;
-      apply_impulse(a, b, p, lambda * t);
+      apply_impulse(a, b, p, lambda * tx, lambda * ty);
       largest = std::max(largest, std::abs(lambda));
     }
   }
@@ -328,67 +380,79 @@ double solve_contacts(SolverScratch& s, const BiasRule& rule) {
 // Split impulses: the rigid position error is removed by impulses on pseudo velocities, which
 // move bodies this substep and are then forgotten, so correction adds no momentum.
 void solve_pseudo(SolverScratch& s, const BiasRule& rule) {
-  for (ContactRow& row : s.rows) {
+  const size_t n_rows = s.rows.size();
+  for (size_t k = 0; k < n_rows; ++k) {
+    ContactRow& row = s.rows[k];
     SolverBody& a = s.bodies[row.ia];
     SolverBody& b = s.bodies[row.ib];
-    const Vec2 n = row.normal;
+    const double nx = row.nx, ny = row.ny;
     for (int i = 0; i < row.count; ++i) {
       ContactPointRow& p = row.points[i];
-      double sep = current_separation(a, b, p, n);
+      double sep = current_separation(a, b, p, nx, ny);
       double bias =
           std::max(rule.baumgarte * rule.inv_h * std::min(0.0, sep + rule.slop), -rule.max_speed);
-      Vec2 dv = b.pv + cross(b.pw, p.rb) - a.pv - cross(a.pw, p.ra);
-      double lambda = -p.normal_mass * (dot(dv, n) + bias);
-      double acc = std::max(p.pseudo_impulse + lambda, 0.0);
-      lambda = acc - p.pseudo_impulse;
-      p.pseudo_impulse = acc;
-      Vec2 P = lambda * n;
-      a.pv -= a.inv_mass * P;
-      a.pw -= a.inv_inertia * cross(p.ra, P);
-      b.pv += b.inv_mass * P;
-      b.pw += b.inv_inertia * cross(p.rb, P);
+      double dvx = (b.pvx - b.pw * p.rby) - (a.pvx - a.pw * p.ray);
+      double dvy = (b.pvy + b.pw * p.rbx) - (a.pvy + a.pw * p.rax);
+      double& acc_ref = s.extras[k].pseudo_impulse[i];
+      double lambda = -p.normal_mass * (dvx * nx + dvy * ny + bias);
+      double acc = std::max(acc_ref + lambda, 0.0);
+      lambda = acc - acc_ref;
+      acc_ref = acc;
+      double px = lambda * nx, py = lambda * ny;
+      a.pvx -= a.inv_mass * px;
+      a.pvy -= a.inv_mass * py;
+      a.pw -= a.inv_inertia * (p.rax * py - p.ray * px);
+      b.pvx += b.inv_mass * px;
+      b.pvy += b.inv_mass * py;
+      b.pw += b.inv_inertia * (p.rbx * py - p.rby * px);
     }
   }
 }
 
 // Symplectic Euler for one substep: x += h (v + v_pseudo); rotation by the exact angle.
 void integrate_positions(SolverScratch& s, double h) {
-  for (size_t k = 1; k < s.bodies.size(); ++k) {
+  const size_t n = s.bodies.size();
+  for (size_t k = 1; k < n; ++k) {
     SolverBody& sb = s.bodies[k];
-    sb.dp += h * (sb.v + sb.pv);
+    sb.dpx += h * (sb.vx + sb.pvx);
+    sb.dpy += h * (sb.vy + sb.pvy);
     double turn = h * (sb.w + sb.pw);
     if (turn != 0.0) {
       SinCos sc = det_sincos(turn);
-      sb.dq = mul(Rot{sc.cos, sc.sin}, sb.dq).normalized();
+      Rot q = mul(Rot{sc.cos, sc.sin}, Rot{sb.qc, sb.qs}).normalized();
+      sb.qc = q.c;
+      sb.qs = q.s;
     }
-    sb.pv = Vec2::Zero();
-    sb.pw = 0.0;
+    sb.pvx = sb.pvy = sb.pw = 0.0;
   }
 }
 
 // Bounce: points that approached faster than the threshold and carried load leave with
 // -e times their approach speed.
 void apply_restitution(SolverScratch& s, double threshold) {
-  for (ContactRow& row : s.rows) {
-    if (row.restitution == 0.0) continue;
+  for (int k : s.restitution_rows) {
+    ContactRow& row = s.rows[k];
+    const ContactRowExtra& extra = s.extras[k];
     SolverBody& a = s.bodies[row.ia];
     SolverBody& b = s.bodies[row.ib];
     for (int i = 0; i < row.count; ++i) {
       ContactPointRow& p = row.points[i];
-      if (p.approach_speed > -threshold || p.max_normal_impulse == 0.0) continue;
-      double vn = dot(relative_velocity(a, b, p), row.normal);
-      double lambda = -p.normal_mass * (vn + row.restitution * p.approach_speed);
+      double approach = extra.approach_speed[i];
+      if (approach > -threshold || p.max_normal_impulse == 0.0) continue;
+      double vn = normal_speed(a, b, p, row.nx, row.ny);
+      double lambda = -p.normal_mass * (vn + extra.restitution * approach);
       double acc = std::max(p.normal_impulse + lambda, 0.0);
       lambda = acc - p.normal_impulse;
       p.normal_impulse = acc;
-      apply_impulse(a, b, p, lambda * row.normal);
+      apply_impulse(a, b, p, lambda * row.nx, lambda * row.ny);
     }
   }
 }
 
 void store_impulses(WorldImpl& w, const SolverScratch& s) {
-  for (const ContactRow& row : s.rows) {
-    Manifold& m = w.contacts[row.contact].manifold;
+  for (size_t k = 0; k < s.rows.size(); ++k) {
+    const ContactRow& row = s.rows[k];
+    Manifold& m = w.contacts[s.extras[k].contact].manifold;
     for (int i = 0; i < row.count; ++i) {
       m.points[i].normal_impulse = row.points[i].normal_impulse;
       m.points[i].tangent_impulse = row.points[i].tangent_impulse;
@@ -401,10 +465,10 @@ void finalize_bodies(WorldImpl& w, const std::vector<int>& awake, const SolverSc
   for (size_t k = 0; k < awake.size(); ++k) {
     Body& b = w.bodies[awake[k]];
     const SolverBody& sb = s.bodies[k + 1];
-    b.v = sb.v;
+    b.v = Vec2(sb.vx, sb.vy);
     b.w = sb.w;
-    b.center += sb.dp;
-    if (sb.dq.s != 0.0 || sb.dq.c != 1.0) b.xf.q = mul(sb.dq, b.xf.q).normalized();
+    b.center += Vec2(sb.dpx, sb.dpy);
+    if (sb.qs != 0.0 || sb.qc != 1.0) b.xf.q = mul(Rot{sb.qc, sb.qs}, b.xf.q).normalized();
     b.xf.p = b.center - b.xf.q.rotate(b.local_center);
   }
 }
