@@ -43,7 +43,9 @@ struct ContactPointRow {
 struct ContactRow {
   int ia = 0, ib = 0;  // solver body slots (0: the shared static body)
   int count = 0;
-  bool block = false;  // rigid mode: solve both normal rows together
+  bool block = false;   // rigid mode: solve both normal rows together
+  bool linear = false;  // neither body turns (particles, fixed rotation, static): no
+                        // angular terms, so the row costs about half
   double nx = 0.0, ny = 0.0;
   double friction = 0.0;
   Softness softness;
