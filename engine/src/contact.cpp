@@ -21,6 +21,7 @@ void link_edge(std::vector<Contact>& contacts, std::vector<Body>& bodies, int ci
     contacts[edge_contact(b.contact_list)].edges[edge_side(b.contact_list)].prev = key;
   }
   b.contact_list = key;
+  ++b.contact_count;
 }
 
 void unlink_edge(std::vector<Contact>& contacts, std::vector<Body>& bodies, int ci, int side,
@@ -35,6 +36,7 @@ void unlink_edge(std::vector<Contact>& contacts, std::vector<Body>& bodies, int 
     contacts[edge_contact(e.next)].edges[edge_side(e.next)].prev = e.prev;
   }
   e.prev = e.next = kNullIndex;
+  --bodies[bi].contact_count;
 }
 
 // Whether two shapes overlap (for sensors): a manifold point with negative separation.
@@ -48,8 +50,11 @@ bool overlapping(const Manifold& m) {
 }  // namespace
 
 bool WorldImpl::has_contact(int sa, int sb) const {
-  // Walk the shorter of the two bodies' lists would need counts; bodies have few contacts.
-  const Body& b = bodies[shapes[sa].body];
+  // Walk the shorter of the two bodies' lists: a body holding many others (a ground, a
+  // container) would otherwise make every new pair cost its whole list.
+  const Body& body_a = bodies[shapes[sa].body];
+  const Body& body_b = bodies[shapes[sb].body];
+  const Body& b = body_a.contact_count <= body_b.contact_count ? body_a : body_b;
   for (int e = b.contact_list; e != kNullIndex;) {
     const Contact& c = contacts[edge_contact(e)];
     if ((c.shape_a == sa && c.shape_b == sb) || (c.shape_a == sb && c.shape_b == sa)) return true;
@@ -111,11 +116,23 @@ void WorldImpl::destroy_body_contacts(int bi) {
 }
 
 void WorldImpl::collide() {
-  // Gather the contacts of awake bodies (each once), in contact id order.
+  // Bodies woken by a touch in one round bring their own contacts into the next round, until
+  // no more wake.
+  size_t first_new = 0;
+  while (first_new < awake_bodies.size()) {
+    size_t end = awake_bodies.size();
+    collide_round(first_new, end);
+    first_new = end;
+  }
+}
+
+void WorldImpl::collide_round(size_t first, size_t end) {
+  // Gather the contacts of these awake bodies not yet seen this step (each once), in contact
+  // id order.
   std::vector<int>& list = scratch_contacts;
   list.clear();
-  for (int bi : awake_bodies) {
-    for (int e = bodies[bi].contact_list; e != kNullIndex;) {
+  for (size_t k = first; k < end; ++k) {
+    for (int e = bodies[awake_bodies[k]].contact_list; e != kNullIndex;) {
       Contact& c = contacts[edge_contact(e)];
       if (c.stamp != step_stamp) {
         c.stamp = step_stamp;

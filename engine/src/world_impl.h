@@ -39,6 +39,7 @@ struct Body {
 
   std::vector<int> shapes;        // shape indices, in creation order
   int contact_list = kNullIndex;  // head of this body's contact edge list (edge key)
+  int contact_count = 0;          // length of that list
   int awake_slot = kNullIndex;    // position in WorldImpl::awake_bodies, or kNullIndex
 
   bool is_dynamic() const { return type == BodyType::kDynamic || type == BodyType::kParticle; }
@@ -127,6 +128,7 @@ class WorldImpl {
   // Refreshes the manifolds of contacts with an awake body; destroys contacts whose boxes
   // stopped overlapping; reports begin/end events; wakes bodies touched by awake ones.
   void collide();
+  void collide_round(size_t first, size_t end);  // awake_bodies[first, end)
   void destroy_body_contacts(int body);
 
   // --- islands and sleep (island.cpp) ---
