@@ -1,8 +1,8 @@
 // The sequential-impulse step for contacts. Each contact point is two rows of the common form
 // in constraint_row.h (an axis row along the normal, bounded to [0, inf), and one along the
 // tangent, bounded by +-mu times the normal impulse), written out here on plain doubles
-// because this is the hot loop. The step (Catto, "Modeling and Solving Constraints", GDC
-// 2009; "Iterative Dynamics with Temporal Coherence", 2005; "Solver2D", 2024).
+// because this is the hot loop. After Catto: "Modeling and Solving Constraints" (GDC 2009),
+// "Iterative Dynamics with Temporal Coherence" (2005) and "Solver2D" (2024).
 //
 // Normal row of one contact point, with n the normal from A to B and r the point relative to
 // each centre of mass:
