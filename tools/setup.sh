@@ -35,3 +35,11 @@ fulcrum_build() {
   fi
   cmake --build "$FULCRUM_BUILD" -j "$(nproc)"
 }
+
+# Every C++ file as clang-format (Debian's 14) would write it, per .clang-format.
+fulcrum_check_format() {
+  local files
+  files=$(cd "$FULCRUM_ROOT" && git ls-files '*.cpp' '*.h' 2>/dev/null ||
+    find engine proto scenes client server tests bench tools -name '*.cpp' -o -name '*.h')
+  (cd "$FULCRUM_ROOT" && clang-format --dry-run -Werror $files)
+}

@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
-# The whole test suite: install what is missing, build with warnings as errors, run every test
-# through ctest in parallel, then check that gcc -O0 and clang -O2 builds step scenes to the
-# same state hashes as the main build.
+# The whole test suite: install what is missing, check formatting, build with warnings as
+# errors, run every test through ctest in parallel, then check that gcc -O0 and clang -O2
+# builds step scenes to the same state hashes as the main build.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 fulcrum_install_packages
+fulcrum_check_format
 fulcrum_build
 (cd "$FULCRUM_BUILD" && ctest --output-on-failure -j "$(nproc)" --timeout 900)
 bash "$FULCRUM_ROOT/tools/determinism.sh"

@@ -277,6 +277,11 @@ struct BiasRule {
   double max_speed;  // cap on push-out speed
 };
 
+// Rigid Baumgarte push-out at separation s: (beta / h) min(0, s + slop), capped.
+inline double rigid_push(const BiasRule& r, double s) {
+  return std::max(r.baumgarte * r.inv_h * std::min(0.0, s + r.slop), -r.max_speed);
+}
+
 // The bias and scales for one normal row at separation s (see the file comment).
 inline void normal_bias(const BiasRule& r, const Softness& soft, double s, double* bias,
                         double* mass_scale, double* impulse_scale) {
@@ -287,8 +292,7 @@ inline void normal_bias(const BiasRule& r, const Softness& soft, double s, doubl
   } else if (!r.use_bias) {
     *bias = 0.0;
   } else if (r.rigid) {
-    *bias =
-        r.split ? 0.0 : std::max(r.baumgarte * r.inv_h * std::min(0.0, s + r.slop), -r.max_speed);
+    *bias = r.split ? 0.0 : rigid_push(r, s);
   } else {
     *bias = std::max(soft.bias_rate * s, -r.max_speed);
     *mass_scale = soft.mass_scale;
@@ -437,9 +441,7 @@ void solve_pseudo(SolverScratch& s, const BiasRule& rule) {
     const double nx = row.nx, ny = row.ny;
     for (int i = 0; i < row.count; ++i) {
       ContactPointRow& p = row.points[i];
-      double sep = current_separation(a, b, p, nx, ny);
-      double bias =
-          std::max(rule.baumgarte * rule.inv_h * std::min(0.0, sep + rule.slop), -rule.max_speed);
+      double bias = rigid_push(rule, current_separation(a, b, p, nx, ny));
       double dvx = (b.pvx - b.pw * p.rby) - (a.pvx - a.pw * p.ray);
       double dvy = (b.pvy + b.pw * p.rbx) - (a.pvy + a.pw * p.rax);
       double& acc_ref = s.extras[k].pseudo_impulse[i];

@@ -1,6 +1,7 @@
 // Queries against the current state: ray casts, box and point overlaps, accuracy metrics.
 // Results are sorted so that they never depend on the tree's internal order.
 #include <algorithm>
+#include <utility>
 
 #include "world_impl.h"
 
@@ -39,6 +40,15 @@ std::vector<RayHit> cast(const WorldImpl& w, const Vec2& origin, const Vec2& tra
   return hits;
 }
 
+// Shape indices to handles, in index order.
+std::vector<ShapeId> sorted_ids(const WorldImpl& w, std::vector<int> found) {
+  std::sort(found.begin(), found.end());
+  std::vector<ShapeId> out;
+  out.reserve(found.size());
+  for (int si : found) out.push_back(w.shape_id(si));
+  return out;
+}
+
 }  // namespace
 
 std::optional<RayHit> World::ray_cast_closest(const Vec2& origin, const Vec2& translation,
@@ -64,10 +74,7 @@ std::vector<ShapeId> World::overlap_aabb(const AABB& box, const QueryFilter& fil
     }
     return true;
   });
-  std::sort(found.begin(), found.end());
-  std::vector<ShapeId> out;
-  for (int si : found) out.push_back(w.shape_id(si));
-  return out;
+  return sorted_ids(w, std::move(found));
 }
 
 std::vector<ShapeId> World::overlap_point(const Vec2& point, const QueryFilter& filter) const {
@@ -83,10 +90,7 @@ std::vector<ShapeId> World::overlap_point(const Vec2& point, const QueryFilter& 
     }
     return true;
   });
-  std::sort(found.begin(), found.end());
-  std::vector<ShapeId> out;
-  for (int si : found) out.push_back(w.shape_id(si));
-  return out;
+  return sorted_ids(w, std::move(found));
 }
 
 WorldMetrics World::metrics() const {

@@ -15,13 +15,13 @@ namespace fulcrum::scenes {
 void add_ground(SceneDef* scene, double half_width, double top = 0.0, double friction = 0.6);
 
 struct PyramidOptions {
-  int base = 20;                   // boxes in the bottom row, >= 1
-  double box_size = 1.0;           // edge length, m
-  double spacing = 1.0;            // horizontal centre distance within a row, m (>= box_size)
-  Vec2 origin = Vec2::Zero();      // centre of the bottom row's bottom edge, m
-  double density = 1.0;            // kg/m^2
+  int base = 20;               // boxes in the bottom row, >= 1
+  double box_size = 1.0;       // edge length, m
+  double spacing = 1.0;        // horizontal centre distance within a row, m (>= box_size)
+  Vec2 origin = Vec2::Zero();  // centre of the bottom row's bottom edge, m
+  double density = 1.0;        // kg/m^2
   double friction = 0.6;
-  double top_density = -1.0;       // density of the top box; < 0 means `density`
+  double top_density = -1.0;  // density of the top box; < 0 means `density`
 };
 // Rows from the bottom up; row r has base - r boxes resting exactly on the row below.
 void add_pyramid(SceneDef* scene, const PyramidOptions& options);
