@@ -57,6 +57,9 @@ bool WorldImpl::should_collide(int sa, int sb) const {
   const Body& ba = bodies[a.body];
   const Body& bb = bodies[b.body];
   if (!ba.is_dynamic() && !bb.is_dynamic()) return false;
+  if (!ba.joints.empty() && !bb.joints.empty() && joint_blocks_contact(a.body, b.body)) {
+    return false;
+  }
   if (a.filter.group_index != 0 && a.filter.group_index == b.filter.group_index) {
     return a.filter.group_index > 0;
   }

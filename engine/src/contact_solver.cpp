@@ -468,6 +468,7 @@ void integrate_positions(SolverScratch& s, double h) {
     sb.dpx += h * (sb.vx + sb.pvx);
     sb.dpy += h * (sb.vy + sb.pvy);
     double turn = h * (sb.w + sb.pw);
+    sb.da += turn;
     if (turn != 0.0) {
       SinCos sc = det_sincos(turn);
       Rot q = mul(Rot{sc.cos, sc.sin}, Rot{sb.qc, sb.qs}).normalized();
@@ -543,13 +544,18 @@ void WorldImpl::solve(const std::vector<int>& awake) {
   load_bodies(*this, awake, s);
   gather_contacts(*this, awake, &s.contacts);
   prepare(*this, s, h);
+  prepare_joints(awake, h);
   for (int sub = 0; sub < set.substeps; ++sub) {
     record_speed_before(s);
     integrate_velocities(*this, awake, s, h);
     track_approach(s, 1.0 / h);
     // Later substeps always start from the impulses of the one before.
-    if (set.warm_starting || sub > 0) warm_start(s);
+    if (set.warm_starting || sub > 0) {
+      warm_start_joints();
+      warm_start(s);
+    }
     for (int it = 0; it < set.velocity_iterations; ++it) {
+      solve_joints(true);
       if (solve_contacts(s, rule) < set.early_exit_tolerance) break;
     }
     if (rule.rigid && rule.split) {
@@ -557,6 +563,7 @@ void WorldImpl::solve(const std::vector<int>& awake) {
     }
     integrate_positions(s, h);
     for (int it = 0; it < set.relax_iterations; ++it) {
+      solve_joints(false);
       if (solve_contacts(s, relax) < set.early_exit_tolerance) break;
     }
   }

@@ -14,6 +14,7 @@ struct SolverBody {
   double inv_mass = 0.0;
   double dpx = 0.0, dpy = 0.0;            // displacement of the centre of mass since the tick began
   double qc = 1.0, qs = 0.0;              // rotation since the tick began
+  double da = 0.0;                        // angle turned since the tick began (sum of h w)
   double pvx = 0.0, pvy = 0.0, pw = 0.0;  // pseudo velocity (split impulses)
   double inv_inertia = 0.0;
 };
@@ -62,6 +63,8 @@ struct ContactRowExtra {
   double i11 = 0.0, i12 = 0.0, i22 = 0.0;  // and its inverse
 };
 
+struct JointRow;
+
 struct SolverScratch {
   std::vector<SolverBody> bodies;
   std::vector<int> body_slot;  // body index -> solver slot (0 for bodies not solved)
@@ -69,6 +72,8 @@ struct SolverScratch {
   std::vector<ContactRowExtra> extras;
   std::vector<int> contacts;
   std::vector<int> restitution_rows;  // rows with restitution > 0
+  std::vector<int> joints;            // awake joints, by id
+  std::vector<JointRow> joint_rows;
 };
 
 }  // namespace fulcrum

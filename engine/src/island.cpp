@@ -66,6 +66,22 @@ void WorldImpl::update_sleep(const std::vector<int>& awake) {
     }
   }
 
+  // Joints join islands too.
+  for (int k = 0; k < n; ++k) {
+    int bi = awake[k];
+    if (!bodies[bi].is_dynamic()) continue;
+    for (int ji : bodies[bi].joints) {
+      const Joint& j = joints[ji];
+      int other = j.body_a == bi ? j.body_b : j.body_a;
+      const Body& o = bodies[other];
+      if (o.type == BodyType::kKinematic && o.sleep_time == 0.0) island_min[k] = 0.0;
+      if (!o.is_dynamic() || !o.awake || other < bi) continue;
+      int ra = find_root(parent, k);
+      int rb = find_root(parent, slot[other] - 1);
+      if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+    }
+  }
+
   // An island sleeps when its least rested body has rested long enough.
   std::vector<double> root_min(n, 1e300);
   for (int k = 0; k < n; ++k) {

@@ -82,6 +82,20 @@ uint64_t World::state_hash() const {
       h.add(p.tangent_impulse);
     }
   }
+  h.add(static_cast<uint64_t>(w.joints.size()));
+  for (const Joint& j : w.joints) {
+    h.add(j.alive);
+    h.add(static_cast<uint64_t>(j.generation));
+    if (!j.alive) continue;
+    h.add(j.linear_impulse);
+    h.add(j.axial_impulse);
+    h.add(j.lower_impulse);
+    h.add(j.upper_impulse);
+    h.add(j.motor_impulse);
+    h.add(j.spring_impulse);
+    h.add(j.motor_speed);
+  }
+  for (int i : w.free_joints) h.add(i);
   for (int i : w.free_bodies) h.add(i);
   for (int i : w.free_shapes) h.add(i);
   for (int i : w.free_contacts) h.add(i);

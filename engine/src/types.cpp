@@ -71,6 +71,9 @@ Status validate_settings(const WorldSettings& s) {
   FULCRUM_RETURN_IF_ERROR(in_range("settings.contact_hertz", s.contact_hertz, 0.0, 1e6));
   FULCRUM_RETURN_IF_ERROR(
       in_range("settings.contact_damping_ratio", s.contact_damping_ratio, 0.0, 1e6));
+  FULCRUM_RETURN_IF_ERROR(in_range("settings.joint_hertz", s.joint_hertz, 0.0, 1e6));
+  FULCRUM_RETURN_IF_ERROR(
+      in_range("settings.joint_damping_ratio", s.joint_damping_ratio, 0.0, 1e6));
   if (s.velocity_iterations < 1 || s.velocity_iterations > 1000) {
     return invalid_argument("settings.velocity_iterations: must be in [1, 1000] (got " +
                             std::to_string(s.velocity_iterations) + ")");

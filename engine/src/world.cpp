@@ -131,6 +131,14 @@ void WorldImpl::wake_island(int start) {
       }
       e = c.edges[edge_side(e)].next;
     }
+    for (int ji : bodies[bi].joints) {
+      const Joint& j = joints[ji];
+      int other = j.body_a == bi ? j.body_b : j.body_a;
+      if (bodies[other].type != BodyType::kStatic && !bodies[other].awake) {
+        set_awake_flag(other, true);
+        stack.push_back(other);
+      }
+    }
   }
 }
 
@@ -211,6 +219,13 @@ Status World::destroy_body(BodyId id) {
     e = c.edges[edge_side(e)].next;
   }
   w.destroy_body_contacts(bi);
+  while (!w.bodies[bi].joints.empty()) {
+    int ji = w.bodies[bi].joints.back();
+    const Joint& j = w.joints[ji];
+    w.wake_island(j.body_a == bi ? j.body_b : j.body_a);
+    w.pending_joint_events.push_back(w.joint_id(ji));
+    w.destroy_joint_at(ji);
+  }
   for (int si : w.bodies[bi].shapes) {
     w.destroy_proxy(si);
     Shape& s = w.shapes[si];
@@ -576,6 +591,7 @@ Status World::set_awake(BodyId id, bool awake) {
 void World::step() {
   WorldImpl& w = *impl_;
   w.events = StepEvents{};
+  w.events.joints_destroyed.swap(w.pending_joint_events);
   ++w.step_stamp;
 
   w.update_pairs();

@@ -9,6 +9,7 @@
 #include "contact_solver.h"
 #include "dynamic_tree.h"
 #include "fulcrum/world.h"
+#include "joint_solver.h"
 #include "manifold.h"
 
 namespace fulcrum {
@@ -38,6 +39,7 @@ struct Body {
   uint64_t user_data = 0;
 
   std::vector<int> shapes;        // shape indices, in creation order
+  std::vector<int> joints;        // joint indices, in creation order
   int contact_list = kNullIndex;  // head of this body's contact edge list (edge key)
   int contact_count = 0;          // length of that list
   int awake_slot = kNullIndex;    // position in WorldImpl::awake_bodies, or kNullIndex
@@ -57,6 +59,30 @@ struct Shape {
   uint64_t user_data = 0;
   int proxy = kNullIndex;  // broad-phase leaf
   bool in_move_buffer = false;
+};
+
+struct Joint {
+  JointType type = JointType::kDistance;
+  uint32_t generation = 0;
+  bool alive = false;
+  int body_a = kNullIndex, body_b = kNullIndex;
+  bool collide_connected = false;
+  Vec2 local_a = Vec2::Zero(), local_b = Vec2::Zero();  // anchors in the body frames
+  // Distance joints.
+  double length = 1.0, min_length = 1.0, max_length = 1.0;
+  // Revolute joints.
+  double reference_angle = 0.0;
+  bool enable_limit = false, enable_motor = false, enable_spring = false;
+  double lower_angle = 0.0, upper_angle = 0.0;
+  double motor_speed = 0.0, max_motor_torque = 0.0;
+  double target_angle = 0.0;
+  // Springs (both types).
+  double hertz = 0.0, damping_ratio = 0.0;
+  // Accumulated impulses, per substep (warm starting carries them across ticks).
+  Vec2 linear_impulse = Vec2::Zero();  // revolute point rows
+  double axial_impulse = 0.0;          // distance: rigid row or spring
+  double lower_impulse = 0.0, upper_impulse = 0.0;
+  double motor_impulse = 0.0, spring_impulse = 0.0;
 };
 
 // A contact sits in two intrusive doubly linked lists, one per body. Edge key = 2 * contact
@@ -92,6 +118,9 @@ class WorldImpl {
   std::vector<int> free_shapes;
   std::vector<Contact> contacts;
   std::vector<int> free_contacts;
+  std::vector<Joint> joints;
+  std::vector<int> free_joints;
+  std::vector<JointId> pending_joint_events;  // destroyed with a body, reported next step
   std::vector<int> awake_bodies;  // unordered set (swap-remove); sorted when a step uses it
   int body_count = 0;
 
@@ -105,6 +134,16 @@ class WorldImpl {
   int shape_index(ShapeId id) const;
   BodyId body_id(int index) const { return BodyId{index, bodies[index].generation}; }
   ShapeId shape_id(int index) const { return ShapeId{index, shapes[index].generation}; }
+  int joint_index(JointId id) const;
+  JointId joint_id(int index) const { return JointId{index, joints[index].generation}; }
+
+  // --- joints (joint.cpp, joint_solver.cpp) ---
+  void destroy_joint_at(int joint);
+  // Whether a joint between the two bodies forbids their contact.
+  bool joint_blocks_contact(int body_a, int body_b) const;
+  void prepare_joints(const std::vector<int>& awake, double h);
+  void warm_start_joints();
+  void solve_joints(bool use_bias);
 
   // --- bodies (world.cpp) ---
   void update_mass(int body);

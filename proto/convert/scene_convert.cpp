@@ -162,6 +162,11 @@ Status settings_from_proto(const v1::WorldSettings& p, const std::string& path, 
   }
   CONVERT_RETURN_IF_ERROR(read_opt(join(path, "contact_hertz"), p.has_contact_hertz(),
                                    p.contact_hertz(), Range::kNonNegative, &s->contact_hertz));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "joint_hertz"), p.has_joint_hertz(), p.joint_hertz(),
+                                   Range::kNonNegative, &s->joint_hertz));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "joint_damping_ratio"), p.has_joint_damping_ratio(),
+                                   p.joint_damping_ratio(), Range::kNonNegative,
+                                   &s->joint_damping_ratio));
   CONVERT_RETURN_IF_ERROR(read_opt(join(path, "contact_damping_ratio"),
                                    p.has_contact_damping_ratio(), p.contact_damping_ratio(),
                                    Range::kNonNegative, &s->contact_damping_ratio));
@@ -712,6 +717,8 @@ void settings_to_proto(const WorldSettings& s, v1::WorldSettings* out) {
   out->set_relax_iterations(s.relax_iterations);
   out->set_contact_hertz(s.contact_hertz);
   out->set_contact_damping_ratio(s.contact_damping_ratio);
+  out->set_joint_hertz(s.joint_hertz);
+  out->set_joint_damping_ratio(s.joint_damping_ratio);
   out->set_position_iterations(s.position_iterations);
   out->set_split_impulses(s.split_impulses);
   out->set_baumgarte(s.baumgarte);

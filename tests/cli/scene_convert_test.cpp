@@ -96,6 +96,14 @@ std::string diff_settings(const WorldSettings& a, const WorldSettings& b) {
   RETURN_IF_DIFF(diff_double(p + ".dt", a.dt, b.dt));
   RETURN_IF_DIFF(
       diff_value(p + ".velocity_iterations", a.velocity_iterations, b.velocity_iterations));
+  RETURN_IF_DIFF(diff_value(p + ".substeps", a.substeps, b.substeps));
+  RETURN_IF_DIFF(diff_value(p + ".relax_iterations", a.relax_iterations, b.relax_iterations));
+  RETURN_IF_DIFF(diff_double(p + ".contact_hertz", a.contact_hertz, b.contact_hertz));
+  RETURN_IF_DIFF(
+      diff_double(p + ".contact_damping_ratio", a.contact_damping_ratio, b.contact_damping_ratio));
+  RETURN_IF_DIFF(diff_double(p + ".joint_hertz", a.joint_hertz, b.joint_hertz));
+  RETURN_IF_DIFF(
+      diff_double(p + ".joint_damping_ratio", a.joint_damping_ratio, b.joint_damping_ratio));
   RETURN_IF_DIFF(
       diff_value(p + ".position_iterations", a.position_iterations, b.position_iterations));
   RETURN_IF_DIFF(diff_value(p + ".split_impulses", a.split_impulses, b.split_impulses));
@@ -210,6 +218,8 @@ SceneDef AwkwardScene() {
   s.relax_iterations = 0;
   s.contact_hertz = 0.0;
   s.contact_damping_ratio = 0.1;
+  s.joint_hertz = 33.0;
+  s.joint_damping_ratio = 0.7;
   s.position_iterations = 0;
   s.split_impulses = true;
   s.baumgarte = 1.0 / 3.0;
@@ -314,7 +324,7 @@ SceneDef AwkwardScene() {
 // scene.proto, scene_convert.cpp (both directions) and the comparisons above, then these
 // numbers (x86-64 sizes).
 TEST(SceneSchema, EngineDefinitionStructsAreCovered) {
-  EXPECT_EQ(sizeof(WorldSettings), 176u);
+  EXPECT_EQ(sizeof(WorldSettings), 192u);
   EXPECT_EQ(sizeof(BodyDef), 112u);
   EXPECT_EQ(sizeof(ShapeDef), 368u);
   EXPECT_EQ(sizeof(ChainDef), 80u);

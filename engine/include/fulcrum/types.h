@@ -109,6 +109,9 @@ struct WorldSettings {
   double restitution_threshold = 1.0;   // m/s, >= 0: slower approaches do not bounce
   double early_exit_tolerance = 0.0;    // N s, >= 0: stop a substep's passes when every
                                         // corrective impulse is below this (0: run them all)
+  double joint_hertz = 60.0;            // Hz, >= 0: stiffness of joint position feedback
+                                        // (0: rigid Baumgarte with `baumgarte`, no slop)
+  double joint_damping_ratio = 2.0;     // >= 0
   bool warm_starting = true;            // start each substep from the last one's impulses
   bool block_solver = true;             // rigid mode: two-point normal rows solved together
 

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "fulcrum/geometry.h"
+#include "fulcrum/joints.h"
 #include "fulcrum/math.h"
 #include "fulcrum/status.h"
 #include "fulcrum/types.h"
@@ -48,6 +49,8 @@ struct SensorEvent {
   ShapeId visitor;
 };
 struct StepEvents {
+  // Joints removed since the previous step because a body they held was destroyed.
+  std::vector<JointId> joints_destroyed;
   std::vector<ContactEvent> contact_begin;
   std::vector<ContactEvent> contact_end;
   std::vector<SensorEvent> sensor_begin;
@@ -126,6 +129,14 @@ class World {
   Status set_awake(BodyId id, bool awake);
   Status set_shape_material(ShapeId id, double friction, double restitution);
   Status set_shape_filter(ShapeId id, const Filter& filter);
+
+  // --- Joints (joints.h). Destroying a body destroys its joints. ---------------------------
+  Result<JointId> create_distance_joint(const DistanceJointDef& def);
+  Result<JointId> create_revolute_joint(const RevoluteJointDef& def);
+  Status destroy_joint(JointId id);
+  bool is_valid(JointId id) const;
+  Result<JointState> joint_state(JointId id) const;
+  Status set_motor_speed(JointId id, double speed);
 
   // --- Simulation ----------------------------------------------------------------------------
   // Advances exactly one tick of settings().dt.

@@ -1,0 +1,378 @@
+// Joint lifetimes, validation, reporting, and the solver stages that visit every awake joint
+// (each type's math is in its own file).
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "fulcrum/trig.h"
+#include "joint_solver.h"
+#include "world_impl.h"
+
+namespace fulcrum {
+
+namespace {
+
+std::string num(double x) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", x);
+  return buf;
+}
+
+Status finite_field(const char* field, double x) {
+  if (!std::isfinite(x))
+    return invalid_argument(std::string(field) + ": must be finite (got " + num(x) + ")");
+  return {};
+}
+
+Status finite_field(const char* field, const Vec2& v) {
+  if (!is_finite(v)) return invalid_argument(std::string(field) + ": must be finite");
+  return {};
+}
+
+Status non_negative(const char* field, double x) {
+  if (!(x >= 0.0) || !std::isfinite(x)) {
+    return invalid_argument(std::string(field) + ": must be finite and >= 0 (got " + num(x) + ")");
+  }
+  return {};
+}
+
+// The angle of b relative to a, less the reference, in (-pi, pi].
+double relative_angle(const Rot& qa, const Rot& qb, double reference) {
+  double angle = inv_mul(qa, qb).angle() - reference;
+  if (angle > kPi) angle -= 2.0 * kPi;
+  if (angle <= -kPi) angle += 2.0 * kPi;
+  return angle;
+}
+
+}  // namespace
+
+const char* joint_type_name(JointType type) {
+  switch (type) {
+    case JointType::kDistance:
+      return "distance";
+    case JointType::kRevolute:
+      return "revolute";
+  }
+  return "unknown";
+}
+
+Status validate_distance_joint_def(const DistanceJointDef& d) {
+  FULCRUM_RETURN_IF_ERROR(finite_field("joint.local_anchor_a", d.local_anchor_a));
+  FULCRUM_RETURN_IF_ERROR(finite_field("joint.local_anchor_b", d.local_anchor_b));
+  if (!(d.length > 0.0) || !std::isfinite(d.length)) {
+    return invalid_argument("joint.length: must be finite and > 0 (got " + num(d.length) + ")");
+  }
+  FULCRUM_RETURN_IF_ERROR(non_negative("joint.min_length", d.min_length));
+  if (!(d.min_length <= d.length)) {
+    return invalid_argument("joint.min_length: must be <= length (got " + num(d.min_length) +
+                            " > " + num(d.length) + ")");
+  }
+  if (!(d.max_length >= d.length) || !std::isfinite(d.max_length)) {
+    return invalid_argument("joint.max_length: must be finite and >= length (got " +
+                            num(d.max_length) + ")");
+  }
+  FULCRUM_RETURN_IF_ERROR(non_negative("joint.hertz", d.hertz));
+  FULCRUM_RETURN_IF_ERROR(non_negative("joint.damping_ratio", d.damping_ratio));
+  return {};
+}
+
+Status validate_revolute_joint_def(const RevoluteJointDef& d) {
+  FULCRUM_RETURN_IF_ERROR(finite_field("joint.local_anchor_a", d.local_anchor_a));
+  FULCRUM_RETURN_IF_ERROR(finite_field("joint.local_anchor_b", d.local_anchor_b));
+  FULCRUM_RETURN_IF_ERROR(finite_field("joint.reference_angle", d.reference_angle));
+  FULCRUM_RETURN_IF_ERROR(finite_field("joint.lower_angle", d.lower_angle));
+  FULCRUM_RETURN_IF_ERROR(finite_field("joint.upper_angle", d.upper_angle));
+  if (d.lower_angle > d.upper_angle) {
+    return invalid_argument("joint.lower_angle: must be <= upper_angle (got " + num(d.lower_angle) +
+                            " > " + num(d.upper_angle) + ")");
+  }
+  FULCRUM_RETURN_IF_ERROR(finite_field("joint.motor_speed", d.motor_speed));
+  FULCRUM_RETURN_IF_ERROR(non_negative("joint.max_motor_torque", d.max_motor_torque));
+  FULCRUM_RETURN_IF_ERROR(non_negative("joint.hertz", d.hertz));
+  FULCRUM_RETURN_IF_ERROR(non_negative("joint.damping_ratio", d.damping_ratio));
+  FULCRUM_RETURN_IF_ERROR(finite_field("joint.target_angle", d.target_angle));
+  return {};
+}
+
+// --- WorldImpl ---------------------------------------------------------------------------------
+
+int WorldImpl::joint_index(JointId id) const {
+  if (id.index < 0 || id.index >= static_cast<int>(joints.size())) return kNullIndex;
+  const Joint& j = joints[id.index];
+  return j.alive && j.generation == id.generation ? id.index : kNullIndex;
+}
+
+bool WorldImpl::joint_blocks_contact(int body_a, int body_b) const {
+  const Body& a = bodies[body_a];
+  const Body& b = bodies[body_b];
+  const std::vector<int>& list = a.joints.size() <= b.joints.size() ? a.joints : b.joints;
+  for (int ji : list) {
+    const Joint& j = joints[ji];
+    bool pair =
+        (j.body_a == body_a && j.body_b == body_b) || (j.body_a == body_b && j.body_b == body_a);
+    if (pair && !j.collide_connected) return true;
+  }
+  return false;
+}
+
+void WorldImpl::destroy_joint_at(int ji) {
+  Joint& j = joints[ji];
+  for (int bi : {j.body_a, j.body_b}) {
+    auto& list = bodies[bi].joints;
+    list.erase(std::find(list.begin(), list.end(), ji));
+  }
+  j.alive = false;
+  free_joints.push_back(ji);
+}
+
+void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
+  SolverScratch& s = solver_scratch;
+  // Awake joints in id order, each once (from its lower-indexed awake body).
+  s.joints.clear();
+  for (int bi : awake) {
+    for (int ji : bodies[bi].joints) {
+      const Joint& j = joints[ji];
+      int other = j.body_a == bi ? j.body_b : j.body_a;
+      if (bodies[other].awake && other < bi) continue;
+      s.joints.push_back(ji);
+    }
+  }
+  std::sort(s.joints.begin(), s.joints.end());
+  s.joints.erase(std::unique(s.joints.begin(), s.joints.end()), s.joints.end());
+
+  Softness soft{};
+  if (settings.joint_hertz > 0.0) {
+    double omega = 2.0 * kPi * settings.joint_hertz, zeta = settings.joint_damping_ratio;
+    double a1 = 2.0 * zeta + h * omega, a2 = h * omega * a1, a3 = 1.0 / (1.0 + a2);
+    soft = Softness{omega / a1, a2 * a3, a3};
+  }
+  s.joint_rows.resize(s.joints.size());
+  for (size_t k = 0; k < s.joints.size(); ++k) {
+    Joint& j = joints[s.joints[k]];
+    if (!settings.warm_starting) {
+      j.linear_impulse = Vec2::Zero();
+      j.axial_impulse = j.lower_impulse = j.upper_impulse = 0.0;
+      j.motor_impulse = j.spring_impulse = 0.0;
+    }
+    const Body& ba = bodies[j.body_a];
+    const Body& bb = bodies[j.body_b];
+    JointRow& r = s.joint_rows[k];
+    r = JointRow{};
+    r.joint = s.joints[k];
+    r.ia = ba.awake ? s.body_slot[j.body_a] : 0;
+    r.ib = bb.awake ? s.body_slot[j.body_b] : 0;
+    Vec2 ra = ba.xf.q.rotate(j.local_a - ba.local_center);
+    Vec2 rb = bb.xf.q.rotate(j.local_b - bb.local_center);
+    r.rax = ra.x();
+    r.ray = ra.y();
+    r.rbx = rb.x();
+    r.rby = rb.y();
+    r.dcx = bb.center.x() - ba.center.x();
+    r.dcy = bb.center.y() - ba.center.y();
+    r.soft = soft;
+    if (j.hertz > 0.0) {
+      double omega = 2.0 * kPi * j.hertz, zeta = j.damping_ratio;
+      double a1 = 2.0 * zeta + h * omega, a2 = h * omega * a1, a3 = 1.0 / (1.0 + a2);
+      r.spring = Softness{omega / a1, a2 * a3, a3};
+    }
+    const SolverBody& a = s.bodies[r.ia];
+    const SolverBody& b = s.bodies[r.ib];
+    if (j.type == JointType::kDistance) {
+      prepare_distance_joint(j, r, a, b);
+    } else {
+      r.angle = relative_angle(ba.xf.q, bb.xf.q, j.reference_angle);
+      prepare_revolute_joint(j, r, a, b);
+    }
+  }
+}
+
+void WorldImpl::warm_start_joints() {
+  SolverScratch& s = solver_scratch;
+  for (const JointRow& r : s.joint_rows) {
+    Joint& j = joints[r.joint];
+    SolverBody& a = s.bodies[r.ia];
+    SolverBody& b = s.bodies[r.ib];
+    if (j.type == JointType::kDistance) {
+      warm_start_distance_joint(j, r, a, b);
+    } else {
+      warm_start_revolute_joint(j, r, a, b);
+    }
+  }
+}
+
+void WorldImpl::solve_joints(bool use_bias) {
+  SolverScratch& s = solver_scratch;
+  JointStep st;
+  st.h = settings.dt / settings.substeps;
+  st.inv_h = 1.0 / st.h;
+  st.use_bias = use_bias;
+  st.rigid = settings.joint_hertz == 0.0;
+  st.baumgarte = settings.baumgarte;
+  st.max_speed = settings.max_correction_speed;
+  for (const JointRow& r : s.joint_rows) {
+    Joint& j = joints[r.joint];
+    SolverBody& a = s.bodies[r.ia];
+    SolverBody& b = s.bodies[r.ib];
+    if (j.type == JointType::kDistance) {
+      solve_distance_joint(j, r, st, a, b);
+    } else {
+      solve_revolute_joint(j, r, st, a, b);
+    }
+  }
+}
+
+// --- World -------------------------------------------------------------------------------------
+
+namespace {
+
+Result<int> add_joint(WorldImpl& w, BodyId body_a, BodyId body_b, bool collide_connected) {
+  int a = w.body_index(body_a);
+  if (a == kNullIndex) {
+    return not_found("joint.body_a: unknown or destroyed body {" + std::to_string(body_a.index) +
+                     ", " + std::to_string(body_a.generation) + "}");
+  }
+  int b = w.body_index(body_b);
+  if (b == kNullIndex) {
+    return not_found("joint.body_b: unknown or destroyed body {" + std::to_string(body_b.index) +
+                     ", " + std::to_string(body_b.generation) + "}");
+  }
+  if (a == b) return invalid_argument("joint.body_b: must differ from body_a (same body)");
+  int ji;
+  if (!w.free_joints.empty()) {
+    ji = w.free_joints.back();
+    w.free_joints.pop_back();
+  } else {
+    ji = static_cast<int>(w.joints.size());
+    w.joints.emplace_back();
+  }
+  Joint& j = w.joints[ji];
+  uint32_t generation = j.generation + 1;
+  j = Joint{};
+  j.generation = generation;
+  j.alive = true;
+  j.body_a = a;
+  j.body_b = b;
+  j.collide_connected = collide_connected;
+  w.bodies[a].joints.push_back(ji);
+  w.bodies[b].joints.push_back(ji);
+  if (!collide_connected) {
+    // Jointed bodies stop colliding: drop their contacts now.
+    for (int e = w.bodies[a].contact_list; e != kNullIndex;) {
+      int ci = edge_contact(e);
+      int next = w.contacts[ci].edges[edge_side(e)].next;
+      const Contact& c = w.contacts[ci];
+      if ((c.body_a == a && c.body_b == b) || (c.body_a == b && c.body_b == a)) {
+        w.destroy_contact(ci, true);
+      }
+      e = next;
+    }
+  }
+  w.wake_island(a);
+  w.wake_island(b);
+  return ji;
+}
+
+}  // namespace
+
+Result<JointId> World::create_distance_joint(const DistanceJointDef& def) {
+  FULCRUM_RETURN_IF_ERROR(validate_distance_joint_def(def));
+  Result<int> ji = add_joint(*impl_, def.body_a, def.body_b, def.collide_connected);
+  if (!ji.ok()) return ji.status();
+  Joint& j = impl_->joints[*ji];
+  j.type = JointType::kDistance;
+  j.local_a = def.local_anchor_a;
+  j.local_b = def.local_anchor_b;
+  j.length = def.length;
+  j.min_length = def.min_length;
+  j.max_length = def.max_length;
+  j.hertz = def.hertz;
+  j.damping_ratio = def.damping_ratio;
+  return impl_->joint_id(*ji);
+}
+
+Result<JointId> World::create_revolute_joint(const RevoluteJointDef& def) {
+  FULCRUM_RETURN_IF_ERROR(validate_revolute_joint_def(def));
+  Result<int> ji = add_joint(*impl_, def.body_a, def.body_b, def.collide_connected);
+  if (!ji.ok()) return ji.status();
+  Joint& j = impl_->joints[*ji];
+  j.type = JointType::kRevolute;
+  j.local_a = def.local_anchor_a;
+  j.local_b = def.local_anchor_b;
+  j.reference_angle = def.reference_angle;
+  j.enable_limit = def.enable_limit;
+  j.lower_angle = def.lower_angle;
+  j.upper_angle = def.upper_angle;
+  j.enable_motor = def.enable_motor;
+  j.motor_speed = def.motor_speed;
+  j.max_motor_torque = def.max_motor_torque;
+  j.enable_spring = def.enable_spring;
+  j.hertz = def.enable_spring ? def.hertz : 0.0;
+  j.damping_ratio = def.damping_ratio;
+  j.target_angle = def.target_angle;
+  return impl_->joint_id(*ji);
+}
+
+Status World::destroy_joint(JointId id) {
+  int ji = impl_->joint_index(id);
+  if (ji == kNullIndex) {
+    return not_found("joint {" + std::to_string(id.index) + ", " + std::to_string(id.generation) +
+                     "}: unknown or destroyed joint handle");
+  }
+  impl_->wake_island(impl_->joints[ji].body_a);
+  impl_->wake_island(impl_->joints[ji].body_b);
+  impl_->destroy_joint_at(ji);
+  return {};
+}
+
+bool World::is_valid(JointId id) const {
+  return impl_->joint_index(id) != kNullIndex;
+}
+
+Status World::set_motor_speed(JointId id, double speed) {
+  int ji = impl_->joint_index(id);
+  if (ji == kNullIndex) return not_found("joint: unknown or destroyed joint handle");
+  if (!std::isfinite(speed)) return invalid_argument("motor_speed: must be finite");
+  impl_->joints[ji].motor_speed = speed;
+  impl_->wake_island(impl_->joints[ji].body_a);
+  impl_->wake_island(impl_->joints[ji].body_b);
+  return {};
+}
+
+Result<JointState> World::joint_state(JointId id) const {
+  const WorldImpl& w = *impl_;
+  int ji = w.joint_index(id);
+  if (ji == kNullIndex) return not_found("joint: unknown or destroyed joint handle");
+  const Joint& j = w.joints[ji];
+  const Body& a = w.bodies[j.body_a];
+  const Body& b = w.bodies[j.body_b];
+  JointState s;
+  s.type = j.type;
+  s.body_a = w.body_id(j.body_a);
+  s.body_b = w.body_id(j.body_b);
+  s.anchor_a = a.xf.apply(j.local_a);
+  s.anchor_b = b.xf.apply(j.local_b);
+  Vec2 d = s.anchor_b - s.anchor_a;
+  s.length = length(d);
+  // Impulses are per substep: force = impulse / substep.
+  const double inv_h = w.settings.substeps / w.settings.dt;
+  if (j.type == JointType::kDistance) {
+    Vec2 u = normalize_or_zero(d);
+    double axial = j.axial_impulse + j.spring_impulse + j.lower_impulse - j.upper_impulse;
+    s.reaction_force = inv_h * axial * u;
+    s.linear_error = std::max({0.0, j.min_length - s.length, s.length - j.max_length});
+  } else {
+    s.reaction_force = inv_h * j.linear_impulse;
+    s.reaction_torque =
+        inv_h * (j.spring_impulse + j.motor_impulse + j.lower_impulse - j.upper_impulse);
+    s.motor_torque = inv_h * j.motor_impulse;
+    s.angle = relative_angle(a.xf.q, b.xf.q, j.reference_angle);
+    s.linear_error = s.length;
+    if (j.enable_limit) {
+      s.angular_error = std::max({0.0, j.lower_angle - s.angle, s.angle - j.upper_angle});
+    }
+  }
+  return s;
+}
+
+}  // namespace fulcrum
