@@ -1,6 +1,8 @@
 #include "fulcrum/scene.h"
 
 #include <string>
+#include <type_traits>
+#include <variant>
 
 namespace fulcrum {
 
@@ -36,12 +38,33 @@ Result<World> build_world(const SceneDef& scene) {
                                  where + ".chains[" + std::to_string(j) + "]", "chain"));
     }
   }
+  const int body_count = static_cast<int>(scene.bodies.size());
+  for (size_t i = 0; i < scene.joints.size(); ++i) {
+    const SceneJoint& sj = scene.joints[i];
+    std::string where = "joints[" + std::to_string(i) + "]";
+    if (sj.body_a < 0 || sj.body_a >= body_count) {
+      return invalid_argument(where + ".body_a: no body " + std::to_string(sj.body_a) +
+                              " in the scene (" + std::to_string(body_count) + " bodies)");
+    }
+    if (sj.body_b < 0 || sj.body_b >= body_count) {
+      return invalid_argument(where + ".body_b: no body " + std::to_string(sj.body_b) +
+                              " in the scene (" + std::to_string(body_count) + " bodies)");
+    }
+    if (sj.body_a == sj.body_b) return invalid_argument(where + ".body_b: must differ from body_a");
+    Status s = std::holds_alternative<DistanceJointDef>(sj.def)
+                   ? validate_distance_joint_def(std::get<DistanceJointDef>(sj.def))
+                   : validate_revolute_joint_def(std::get<RevoluteJointDef>(sj.def));
+    FULCRUM_RETURN_IF_ERROR(at(s, where, "joint"));
+  }
   World world(scene.settings);
+  std::vector<BodyId> ids;
+  ids.reserve(scene.bodies.size());
   for (size_t i = 0; i < scene.bodies.size(); ++i) {
     const SceneBody& sb = scene.bodies[i];
     std::string where = "bodies[" + std::to_string(i) + "]";
     Result<BodyId> body = world.create_body(sb.def);
     if (!body.ok()) return at(body.status(), where, "body");
+    ids.push_back(*body);
     for (size_t j = 0; j < sb.shapes.size(); ++j) {
       Result<ShapeId> shape = world.create_shape(*body, sb.shapes[j]);
       if (!shape.ok()) {
@@ -54,6 +77,21 @@ Result<World> build_world(const SceneDef& scene) {
         return at(chain.status(), where + ".chains[" + std::to_string(j) + "]", "chain");
       }
     }
+  }
+  for (size_t i = 0; i < scene.joints.size(); ++i) {
+    const SceneJoint& sj = scene.joints[i];
+    Result<JointId> joint = std::visit(
+        [&](auto def) {
+          def.body_a = ids[sj.body_a];
+          def.body_b = ids[sj.body_b];
+          if constexpr (std::is_same_v<decltype(def), DistanceJointDef>) {
+            return world.create_distance_joint(def);
+          } else {
+            return world.create_revolute_joint(def);
+          }
+        },
+        sj.def);
+    if (!joint.ok()) return at(joint.status(), "joints[" + std::to_string(i) + "]", "joint");
   }
   return world;
 }

@@ -17,9 +17,11 @@
 #include <sstream>
 #include <unordered_set>
 #include <utility>
+#include <variant>
 #include <vector>
 
 #include "fulcrum/geometry.h"
+#include "fulcrum/joints.h"
 #include "fulcrum/scenes.h"
 #include "fulcrum/trig.h"
 #include "fulcrum/types.h"
@@ -798,6 +800,126 @@ std::string keep_negative_zeros(const std::string& json) {
   return out;
 }
 
+Status joint_from_proto(const v1::Joint& p, const std::string& path, int body_count,
+                        SceneJoint* out) {
+  if (p.body_a() >= static_cast<uint32_t>(body_count)) {
+    return fail(join(path, "body_a"), "no body " + std::to_string(p.body_a()) + " in the scene (" +
+                                          std::to_string(body_count) + " bodies)");
+  }
+  if (p.body_b() >= static_cast<uint32_t>(body_count)) {
+    return fail(join(path, "body_b"), "no body " + std::to_string(p.body_b()) + " in the scene (" +
+                                          std::to_string(body_count) + " bodies)");
+  }
+  out->body_a = static_cast<int>(p.body_a());
+  out->body_b = static_cast<int>(p.body_b());
+  Vec2 anchor_a = Vec2::Zero(), anchor_b = Vec2::Zero();
+  CONVERT_RETURN_IF_ERROR(read_opt_vec(join(path, "local_anchor_a"), p.has_local_anchor_a(),
+                                       p.local_anchor_a(), &anchor_a));
+  CONVERT_RETURN_IF_ERROR(read_opt_vec(join(path, "local_anchor_b"), p.has_local_anchor_b(),
+                                       p.local_anchor_b(), &anchor_b));
+  if (p.has_distance()) {
+    const v1::DistanceJoint& d = p.distance();
+    const std::string where = join(path, "distance");
+    DistanceJointDef def;
+    def.local_anchor_a = anchor_a;
+    def.local_anchor_b = anchor_b;
+    def.collide_connected = p.collide_connected();
+    CONVERT_RETURN_IF_ERROR(
+        read_opt(join(where, "length"), d.has_length(), d.length(), Range::kPositive, &def.length));
+    def.min_length = def.max_length = def.length;
+    CONVERT_RETURN_IF_ERROR(read_opt(join(where, "min_length"), d.has_min_length(), d.min_length(),
+                                     Range::kNonNegative, &def.min_length));
+    CONVERT_RETURN_IF_ERROR(read_opt(join(where, "max_length"), d.has_max_length(), d.max_length(),
+                                     Range::kPositive, &def.max_length));
+    CONVERT_RETURN_IF_ERROR(check(join(where, "hertz"), d.hertz(), Range::kNonNegative));
+    CONVERT_RETURN_IF_ERROR(
+        check(join(where, "damping_ratio"), d.damping_ratio(), Range::kNonNegative));
+    def.hertz = d.hertz();
+    def.damping_ratio = d.damping_ratio();
+    out->def = def;
+  } else if (p.has_revolute()) {
+    const v1::RevoluteJoint& r = p.revolute();
+    const std::string where = join(path, "revolute");
+    RevoluteJointDef def;
+    def.local_anchor_a = anchor_a;
+    def.local_anchor_b = anchor_b;
+    def.collide_connected = p.collide_connected();
+    for (auto [name, value] :
+         {std::pair<const char*, double>{"reference_angle", r.reference_angle()},
+          {"lower_angle", r.lower_angle()},
+          {"upper_angle", r.upper_angle()},
+          {"motor_speed", r.motor_speed()},
+          {"target_angle", r.target_angle()}}) {
+      CONVERT_RETURN_IF_ERROR(check(join(where, name), value, Range::kFinite));
+    }
+    CONVERT_RETURN_IF_ERROR(
+        check(join(where, "max_motor_torque"), r.max_motor_torque(), Range::kNonNegative));
+    CONVERT_RETURN_IF_ERROR(check(join(where, "hertz"), r.hertz(), Range::kNonNegative));
+    CONVERT_RETURN_IF_ERROR(
+        check(join(where, "damping_ratio"), r.damping_ratio(), Range::kNonNegative));
+    def.reference_angle = r.reference_angle();
+    def.enable_limit = r.enable_limit();
+    def.lower_angle = r.lower_angle();
+    def.upper_angle = r.upper_angle();
+    def.enable_motor = r.enable_motor();
+    def.motor_speed = r.motor_speed();
+    def.max_motor_torque = r.max_motor_torque();
+    def.enable_spring = r.enable_spring();
+    def.hertz = r.hertz();
+    def.damping_ratio = r.damping_ratio();
+    def.target_angle = r.target_angle();
+    out->def = def;
+  } else {
+    return fail(path, "needs a kind (distance or revolute)");
+  }
+  // Cross-field rules (min <= length <= max, lower <= upper) are the engine's to check.
+  Status s = std::holds_alternative<DistanceJointDef>(out->def)
+                 ? validate_distance_joint_def(std::get<DistanceJointDef>(out->def))
+                 : validate_revolute_joint_def(std::get<RevoluteJointDef>(out->def));
+  if (!s.ok()) {
+    std::string msg = s.message();
+    if (msg.rfind("joint.", 0) == 0) msg = msg.substr(6);
+    return invalid_argument(path + "." + msg);
+  }
+  return Status::ok_status();
+}
+
+void joint_to_proto(const SceneJoint& j, v1::Joint* out) {
+  out->set_body_a(static_cast<uint32_t>(j.body_a));
+  out->set_body_b(static_cast<uint32_t>(j.body_b));
+  auto anchors = [&](const auto& def) {
+    out->mutable_local_anchor_a()->set_x(def.local_anchor_a.x());
+    out->mutable_local_anchor_a()->set_y(def.local_anchor_a.y());
+    out->mutable_local_anchor_b()->set_x(def.local_anchor_b.x());
+    out->mutable_local_anchor_b()->set_y(def.local_anchor_b.y());
+    out->set_collide_connected(def.collide_connected);
+  };
+  if (const auto* d = std::get_if<DistanceJointDef>(&j.def)) {
+    anchors(*d);
+    v1::DistanceJoint* p = out->mutable_distance();
+    p->set_length(d->length);
+    p->set_min_length(d->min_length);
+    p->set_max_length(d->max_length);
+    p->set_hertz(d->hertz);
+    p->set_damping_ratio(d->damping_ratio);
+  } else {
+    const auto& r = std::get<RevoluteJointDef>(j.def);
+    anchors(r);
+    v1::RevoluteJoint* p = out->mutable_revolute();
+    p->set_reference_angle(r.reference_angle);
+    p->set_enable_limit(r.enable_limit);
+    p->set_lower_angle(r.lower_angle);
+    p->set_upper_angle(r.upper_angle);
+    p->set_enable_motor(r.enable_motor);
+    p->set_motor_speed(r.motor_speed);
+    p->set_max_motor_torque(r.max_motor_torque);
+    p->set_enable_spring(r.enable_spring);
+    p->set_hertz(r.hertz);
+    p->set_damping_ratio(r.damping_ratio);
+    p->set_target_angle(r.target_angle);
+  }
+}
+
 }  // namespace
 
 Result<SceneDef> scene_from_proto(const v1::Scene& proto) {
@@ -827,6 +949,12 @@ Result<SceneDef> scene_from_proto(const v1::Scene& proto) {
     CONVERT_RETURN_IF_ERROR(body_from_proto(proto.bodies(i), indexed("", "bodies", i), &body));
     scene.bodies.push_back(std::move(body));
   }
+  for (int i = 0; i < proto.joints_size(); ++i) {
+    SceneJoint joint;
+    CONVERT_RETURN_IF_ERROR(joint_from_proto(proto.joints(i), indexed("", "joints", i),
+                                             static_cast<int>(scene.bodies.size()), &joint));
+    scene.joints.push_back(joint);
+  }
   return scene;
 }
 
@@ -835,6 +963,7 @@ v1::Scene scene_to_proto(const SceneDef& scene, std::string_view name) {
   out.set_name(std::string(name));
   settings_to_proto(scene.settings, out.mutable_settings());
   for (const SceneBody& b : scene.bodies) body_to_proto(b, out.add_bodies());
+  for (const SceneJoint& j : scene.joints) joint_to_proto(j, out.add_joints());
   return out;
 }
 

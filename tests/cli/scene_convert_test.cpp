@@ -663,3 +663,59 @@ TEST(SceneFiles, SaveAndLoad) {
 
 }  // namespace
 }  // namespace fulcrum
+
+namespace fulcrum {
+namespace {
+
+// Joints name bodies by their index in the assembled scene and survive a JSON round trip.
+TEST(SceneJoints, ParseBuildAndRoundTrip) {
+  const char* json = R"({
+    "bodies": [
+      {"type": "BODY_TYPE_STATIC"},
+      {"type": "BODY_TYPE_DYNAMIC", "position": {"x": 1, "y": 0},
+       "shapes": [{"circle": {"radius": 0.1}}]},
+      {"type": "BODY_TYPE_DYNAMIC", "position": {"x": 2, "y": 0},
+       "shapes": [{"circle": {"radius": 0.1}}]}
+    ],
+    "joints": [
+      {"bodyA": 0, "bodyB": 1, "localAnchorB": {"x": -1, "y": 0},
+       "revolute": {"enableLimit": true, "lowerAngle": -0.5, "upperAngle": 0.5}},
+      {"bodyA": 1, "bodyB": 2, "distance": {"length": 1, "minLength": 0, "maxLength": 1.5}}
+    ]
+  })";
+  Result<SceneDef> scene = parse_scene_json(json);
+  ASSERT_TRUE(scene.ok()) << scene.status().to_string();
+  ASSERT_EQ(scene->joints.size(), 2u);
+  const auto& rope = std::get<DistanceJointDef>(scene->joints[1].def);
+  EXPECT_EQ(rope.min_length, 0.0);
+  EXPECT_EQ(rope.max_length, 1.5);
+  Result<World> world = build_world(*scene);
+  ASSERT_TRUE(world.ok()) << world.status().to_string();
+  // Through JSON and back: the same JSON again.
+  std::string once = scene_to_json(*scene);
+  Result<SceneDef> again = parse_scene_json(once);
+  ASSERT_TRUE(again.ok()) << again.status().to_string();
+  EXPECT_EQ(scene_to_json(*again), once);
+}
+
+TEST(SceneJoints, BadJointsNameTheField) {
+  const char* missing = R"({"bodies": [{}], "joints": [{"bodyA": 0, "bodyB": 3, "distance": {}}]})";
+  Result<SceneDef> a = parse_scene_json(missing);
+  ASSERT_FALSE(a.ok());
+  EXPECT_NE(a.status().message().find("joints[0].body_b: no body 3"), std::string::npos)
+      << a.status().message();
+  const char* limits = R"({"bodies": [{}, {}], "joints": [{"bodyA": 0, "bodyB": 1,
+      "revolute": {"lowerAngle": 1, "upperAngle": -1}}]})";
+  Result<SceneDef> b = parse_scene_json(limits);
+  ASSERT_FALSE(b.ok());
+  EXPECT_NE(b.status().message().find("joints[0].lower_angle"), std::string::npos)
+      << b.status().message();
+  const char* kindless = R"({"bodies": [{}, {}], "joints": [{"bodyA": 0, "bodyB": 1}]})";
+  Result<SceneDef> c = parse_scene_json(kindless);
+  ASSERT_FALSE(c.ok());
+  EXPECT_NE(c.status().message().find("joints[0]: needs a kind"), std::string::npos)
+      << c.status().message();
+}
+
+}  // namespace
+}  // namespace fulcrum

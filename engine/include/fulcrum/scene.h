@@ -3,8 +3,10 @@
 // build_world turns it into a World.
 #pragma once
 
+#include <variant>
 #include <vector>
 
+#include "fulcrum/joints.h"
 #include "fulcrum/status.h"
 #include "fulcrum/types.h"
 #include "fulcrum/world.h"
@@ -17,9 +19,18 @@ struct SceneBody {
   std::vector<ChainDef> chains;
 };
 
+// A joint between two of the scene's bodies, named by their positions in `bodies` (the
+// definition's own body_a and body_b handles are ignored).
+struct SceneJoint {
+  int body_a = 0;
+  int body_b = 0;
+  std::variant<DistanceJointDef, RevoluteJointDef> def;
+};
+
 struct SceneDef {
   WorldSettings settings;
   std::vector<SceneBody> bodies;
+  std::vector<SceneJoint> joints;  // created after every body, in order
 };
 
 // Validates the whole scene first (messages name the place: "bodies[3].shapes[0].density"),
