@@ -37,12 +37,12 @@ void WorldImpl::synchronize_shapes(int bi) {
   Vec2 travel = settings.dt * b.v;
   for (int si : b.shapes) {
     Shape& s = shapes[si];
-    AABB box = compute_aabb(s.geometry, b.xf);
-    if (tree.fat_aabb(s.proxy).contains(box)) continue;
-    AABB fat = box.fattened(settings.aabb_margin);
-    fat.lower += travel.cwiseMin(Vec2::Zero());
-    fat.upper += travel.cwiseMax(Vec2::Zero());
-    tree.move_proxy(s.proxy, fat);
+    // The box now and where it will be after a tick at this velocity.
+    AABB swept = compute_aabb(s.geometry, b.xf);
+    swept.lower += travel.cwiseMin(Vec2::Zero());
+    swept.upper += travel.cwiseMax(Vec2::Zero());
+    if (tree.fat_aabb(s.proxy).contains(swept)) continue;
+    tree.move_proxy(s.proxy, swept.fattened(settings.aabb_margin));
     if (!s.in_move_buffer) {
       s.in_move_buffer = true;
       move_buffer.push_back(si);

@@ -5,6 +5,8 @@
 #include <map>
 
 #include "fulcrum/trig.h"
+#include "hard_scenes.h"
+#include "joint_scenes.h"
 
 namespace fulcrum::scenes {
 
@@ -246,6 +248,13 @@ const std::map<std::string, std::function<SceneDef()>, std::less<>>& registry() 
       {"overlap_recovery", overlap_recovery},
       {"bounce", bounce},
       {"slide", slide},
+      {"arch", hard::arch},
+      {"confined", hard::confined},
+      {"bullet", hard::bullet},
+      {"joint_grid", joint_grid},
+      {"bridge", bridge},
+      {"cloth", cloth},
+      {"rope", rope},
       {"mixed", mixed},
       {"tumbler", tumbler},
       {"particle_pile", [] { return pile(BodyType::kParticle); }},

@@ -2,8 +2,10 @@
 // the named scenes are the cases of the hard-case table and the benchmark table.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "fulcrum/scene.h"
@@ -35,6 +37,36 @@ struct StackOptions {
   double friction = 0.6;
 };
 void add_stack(SceneDef* scene, const StackOptions& options);
+
+// A rope of particles: `count` particles of radius `radius` from `start` toward `end`, each
+// tied to the next by a distance joint that is slack below the segment length (max length
+// only). The first particle is pinned to a static body when `pin_start`. Returns the index of
+// the first particle in scene->bodies.
+struct RopeOptions {
+  Vec2 start = Vec2(0.0, 10.0);  // m
+  Vec2 end = Vec2(10.0, 10.0);   // m
+  int count = 20;                // particles, >= 2
+  double radius = 0.05;          // m
+  double density = 10.0;         // kg/m^2
+  bool pin_start = true;
+  bool collide = true;  // whether the rope's particles collide with other shapes
+};
+int add_rope(SceneDef* scene, const RopeOptions& options);
+
+// A cloth of particles on a grid (rows from the top down), with structural distance joints
+// to the right and lower neighbours and shear joints along both diagonals; the listed
+// particles are pinned (made static). Particles of one cloth never collide with each other.
+struct ClothOptions {
+  Vec2 top_left = Vec2(-3.0, 8.0);  // m
+  int columns = 30;
+  int rows = 30;
+  double spacing = 0.2;                                         // m
+  double radius = 0.05;                                         // m, particle radius
+  double density = 10.0;                                        // kg/m^2
+  std::vector<std::pair<int, int>> pinned = {{0, 0}, {29, 0}};  // (column, row)
+  int32_t group = -7;  // collision group shared by the cloth's particles (< 0: never collide)
+};
+int add_cloth(SceneDef* scene, const ClothOptions& options);
 
 // Named scenes (HARD_CASES.md and the benchmark table), ground included.
 std::vector<std::string> builtin_names();

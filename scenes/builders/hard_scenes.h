@@ -1,0 +1,29 @@
+// Builders of the hard cases that live outside scenes.cpp (HARD_CASES.md cases 7, 8 and 17).
+// Internal to the scenes library: reach them by name through scenes::builtin().
+#pragma once
+
+#include "fulcrum/scene.h"
+
+namespace fulcrum::scenes::hard {
+
+// Case 7: 17 voussoirs forming a half ring (inner radius 5 m, outer 6 m) standing on a static
+// ground, friction 0.6, no joints, sleep off. bodies[0] is the ground, bodies[1 + i] voussoir i
+// counted from the right (angle 0) to the left (angle pi); bodies[9] is the crown.
+SceneDef arch();
+
+// Case 8: 625 circles of radius 0.5 on a 25 x 25 grid with spacing 0.72 m (every neighbour
+// overlaps by 0.28 m) inside a closed box of four static walls, inner size 21 m x 21 m centred
+// on the origin, zero gravity, sleep off. The circles cover 491 m^2 of the 441 m^2 inside,
+// so they stay overlapping (about 0.2 m) however they settle. bodies[0..3] are the walls, then the
+// circles row by row.
+SceneDef confined();
+
+// Case 17: a circle of radius 0.05 flying at 300 m/s toward a static wall 0.1 m thick (its
+// faces at x = -0.05 and x = 0.05, 10 m tall, standing on the ground). bodies[0] is the
+// ground, bodies[1] the wall, bodies[2] the bullet, starting 10 m left of the wall at 5 m.
+// Without continuous collision, whether the wall stops it depends on where it starts relative
+// to the tick grid (from this start it is stopped; from most others it is not): see case 17
+// in tests/engine/hard_cases_more_test.cpp.
+SceneDef bullet();
+
+}  // namespace fulcrum::scenes::hard

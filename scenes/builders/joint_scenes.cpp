@@ -1,0 +1,172 @@
+#include "joint_scenes.h"
+
+#include <cmath>
+
+#include "fulcrum/scenes.h"
+
+namespace fulcrum::scenes {
+
+namespace {
+
+SceneJoint revolute(int a, int b, const Vec2& anchor_a, const Vec2& anchor_b) {
+  RevoluteJointDef def;
+  def.local_anchor_a = anchor_a;
+  def.local_anchor_b = anchor_b;
+  return SceneJoint{a, b, def};
+}
+
+SceneJoint distance(int a, int b, double length, double min_length, double max_length) {
+  DistanceJointDef def;
+  def.length = length;
+  def.min_length = min_length;
+  def.max_length = max_length;
+  return SceneJoint{a, b, def};
+}
+
+int add_particle(SceneDef* scene, const Vec2& p, double radius, double density,
+                 const Filter& filter, BodyType type) {
+  SceneBody body;
+  body.def.type = type;
+  body.def.position = p;
+  ShapeDef shape;
+  shape.geometry = Circle{Vec2::Zero(), radius};
+  shape.density = density;
+  shape.filter = filter;
+  body.shapes.push_back(shape);
+  scene->bodies.push_back(body);
+  return static_cast<int>(scene->bodies.size()) - 1;
+}
+
+}  // namespace
+
+int add_rope(SceneDef* scene, const RopeOptions& o) {
+  Filter filter;
+  if (!o.collide) filter.mask_bits = 0;
+  double segment = fulcrum::distance(o.start, o.end) / (o.count - 1);
+  int first = static_cast<int>(scene->bodies.size());
+  for (int i = 0; i < o.count; ++i) {
+    Vec2 p = lerp(o.start, o.end, static_cast<double>(i) / (o.count - 1));
+    BodyType type = i == 0 && o.pin_start ? BodyType::kStatic : BodyType::kParticle;
+    int index = add_particle(scene, p, o.radius, o.density, filter, type);
+    // Neighbours overlap when the rope bunches up: they never collide (joint default).
+    if (i > 0) scene->joints.push_back(distance(index - 1, index, segment, 0.0, segment));
+  }
+  return first;
+}
+
+int add_cloth(SceneDef* scene, const ClothOptions& o) {
+  Filter filter;
+  filter.group_index = o.group;
+  int first = static_cast<int>(scene->bodies.size());
+  auto at = [&](int c, int r) { return first + r * o.columns + c; };
+  for (int r = 0; r < o.rows; ++r) {
+    for (int c = 0; c < o.columns; ++c) {
+      bool pinned = false;
+      for (auto [pc, pr] : o.pinned) pinned = pinned || (pc == c && pr == r);
+      Vec2 p = o.top_left + Vec2(c * o.spacing, -r * o.spacing);
+      add_particle(scene, p, o.radius, o.density, filter,
+                   pinned ? BodyType::kStatic : BodyType::kParticle);
+    }
+  }
+  const double diagonal = o.spacing * std::sqrt(2.0);
+  for (int r = 0; r < o.rows; ++r) {
+    for (int c = 0; c < o.columns; ++c) {
+      if (c + 1 < o.columns) {
+        scene->joints.push_back(distance(at(c, r), at(c + 1, r), o.spacing, o.spacing, o.spacing));
+      }
+      if (r + 1 < o.rows) {
+        scene->joints.push_back(distance(at(c, r), at(c, r + 1), o.spacing, o.spacing, o.spacing));
+      }
+      if (c + 1 < o.columns && r + 1 < o.rows) {
+        scene->joints.push_back(distance(at(c, r), at(c + 1, r + 1), diagonal, diagonal, diagonal));
+        scene->joints.push_back(distance(at(c + 1, r), at(c, r + 1), diagonal, diagonal, diagonal));
+      }
+    }
+  }
+  return first;
+}
+
+// The benchmark table's joint grid: circles of radius 0.4 at (k, -i), never colliding with
+// each other; the top row's bodies 47..53 are static; each body is pinned to the one above
+// and the one on its left.
+SceneDef joint_grid() {
+  SceneDef s;
+  s.settings.enable_sleep = false;
+  const int n = 100;
+  Filter filter;
+  filter.category_bits = 2;
+  filter.mask_bits = ~uint64_t{2};
+  for (int k = 0; k < n; ++k) {
+    for (int i = 0; i < n; ++i) {
+      bool fixed = i == 0 && k >= 47 && k <= 53;
+      add_particle(&s, Vec2(k, -i), 0.4, 1.0, filter,
+                   fixed ? BodyType::kStatic : BodyType::kDynamic);
+    }
+  }
+  auto at = [&](int k, int i) { return k * n + i; };
+  for (int k = 0; k < n; ++k) {
+    for (int i = 0; i < n; ++i) {
+      if (i > 0) s.joints.push_back(revolute(at(k, i - 1), at(k, i), Vec2(0, -0.5), Vec2(0, 0.5)));
+      if (k > 0) s.joints.push_back(revolute(at(k - 1, i), at(k, i), Vec2(0.5, 0), Vec2(-0.5, 0)));
+    }
+  }
+  return s;
+}
+
+// HARD_CASES 11: 160 planks of 1 m x 0.25 m, density 20, pinned end to end and to the ground
+// at both ends.
+SceneDef bridge() {
+  SceneDef s;
+  add_ground(&s, 100.0, -20.0);
+  const int n = 160;
+  SceneBody anchor;  // static anchors at both ends, at bridge height
+  s.bodies.push_back(anchor);
+  int left = static_cast<int>(s.bodies.size()) - 1;
+  int first = static_cast<int>(s.bodies.size());
+  for (int i = 0; i < n; ++i) {
+    SceneBody plank;
+    plank.def.type = BodyType::kDynamic;
+    plank.def.position = Vec2(-80.0 + 0.5 + i, 0.0);
+    ShapeDef shape;
+    shape.geometry = make_box(0.5, 0.125);
+    shape.density = 20.0;
+    plank.shapes.push_back(shape);
+    s.bodies.push_back(plank);
+  }
+  s.joints.push_back(revolute(left, first, Vec2(-80.0, 0.0), Vec2(-0.5, 0.0)));
+  for (int i = 1; i < n; ++i) {
+    s.joints.push_back(revolute(first + i - 1, first + i, Vec2(0.5, 0.0), Vec2(-0.5, 0.0)));
+  }
+  s.joints.push_back(revolute(left, first + n - 1, Vec2(80.0, 0.0), Vec2(0.5, 0.0)));
+  return s;
+}
+
+// HARD_CASES 13: a 30 x 30 cloth of particles 0.2 m apart, pinned at its two top corners.
+SceneDef cloth() {
+  SceneDef s;
+  add_ground(&s, 20.0, -2.0);
+  add_cloth(&s, ClothOptions{});
+  return s;
+}
+
+SceneDef rope() {
+  SceneDef s;
+  add_ground(&s, 30.0);
+  for (int i = 0; i < 5; ++i) {
+    SceneBody box;
+    box.def.type = BodyType::kDynamic;
+    box.def.position = Vec2(2.0 + 2.0 * i, 0.5);
+    ShapeDef shape;
+    shape.geometry = make_box(0.5, 0.5);
+    box.shapes.push_back(shape);
+    s.bodies.push_back(box);
+  }
+  RopeOptions o;
+  o.start = Vec2(0.0, 8.0);
+  o.end = Vec2(12.0, 8.0);
+  o.count = 40;
+  add_rope(&s, o);
+  return s;
+}
+
+}  // namespace fulcrum::scenes

@@ -1,0 +1,13 @@
+// Scenes built of joints (HARD_CASES 9, 11, 13 and the benchmark table's joint grid).
+#pragma once
+
+#include "fulcrum/scene.h"
+
+namespace fulcrum::scenes {
+
+SceneDef joint_grid();  // 100 x 100 circles, revolute joints to the neighbours above and left
+SceneDef bridge();      // 160 planks on revolute joints, both ends anchored
+SceneDef cloth();       // 30 x 30 particles, structural and shear distance joints
+SceneDef rope();        // a 40-particle rope pinned at one end, falling onto boxes
+
+}  // namespace fulcrum::scenes

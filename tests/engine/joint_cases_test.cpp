@@ -1,0 +1,88 @@
+// HARD_CASES 9 and 13: the joint grid and the cloth, each against its pass criterion. (Case 11,
+// the bridge, does not pass yet: see the note on the joints issue.)
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "fulcrum/scene.h"
+#include "fulcrum/scenes.h"
+#include "fulcrum/world.h"
+#include "world_impl.h"
+
+namespace fulcrum {
+namespace {
+
+// The scene with the given substeps and joint stiffness (joint feedback is limited to about a
+// quarter of the substep rate).
+World build(const char* name, int substeps, double joint_hertz) {
+  auto scene = scenes::builtin(name);
+  EXPECT_TRUE(scene.ok()) << scene.status().to_string();
+  scene->settings.substeps = substeps;
+  scene->settings.joint_hertz = joint_hertz;
+  auto world = build_world(*scene);
+  EXPECT_TRUE(world.ok()) << world.status().to_string();
+  return std::move(world).value();
+}
+
+std::vector<JointId> all_joints(const World& w) {
+  std::vector<JointId> out;
+  const WorldImpl& impl = w.impl();
+  for (int i = 0; i < static_cast<int>(impl.joints.size()); ++i) {
+    if (impl.joints[i].alive) out.push_back(impl.joint_id(i));
+  }
+  return out;
+}
+
+bool all_finite(const World& w) {
+  for (BodyId id : w.bodies()) {
+    BodyState s = *w.body_state(id);
+    if (!is_finite(s.center) || !is_finite(s.linear_velocity)) return false;
+  }
+  return true;
+}
+
+// Case 9: 100 x 100 circles pinned to their neighbours, hanging from 7 static bodies, for 500
+// ticks: no NaN, and the largest joint separation stays under 10 cm.
+// The defaults (4 substeps, joints at 60 Hz) reach 0.55 m as the grid swings down (soft
+// joints give under the grid's whole weight on 7 pins); 8 substeps at 120 Hz 0.16 m. Pinned:
+// 12 substeps with joints at 180 Hz.
+TEST(JointCases, Case09JointGrid) {
+  World w = build("joint_grid", 12, 180.0);
+  std::vector<JointId> joints = all_joints(w);
+  ASSERT_EQ(joints.size(), 19800u);
+  double worst = 0.0;
+  for (int i = 0; i < 500; ++i) {
+    w.step();
+    if (i % 10 == 9) {
+      for (JointId j : joints) worst = std::max(worst, w.joint_state(j)->linear_error);
+    }
+  }
+  EXPECT_TRUE(all_finite(w));
+  EXPECT_LT(worst, 0.10);
+}
+
+// Case 13: a 30 x 30 cloth pinned at two corners hangs for 10 s with no constraint
+// stretched more than 5 % and no NaN. The defaults stretch the corner rows 17 % in the first
+// jerk; pinned: 8 substeps with joints at 120 Hz.
+TEST(JointCases, Case13Cloth) {
+  World w = build("cloth", 8, 120.0);
+  std::vector<JointId> joints = all_joints(w);
+  double worst = 0.0;
+  for (int i = 0; i < 600; ++i) {
+    w.step();
+    if (i > 30 && i % 5 != 4) continue;  // every tick through the first jerk
+    for (JointId j : joints) {
+      const WorldImpl& impl = w.impl();
+      JointState s = *w.joint_state(j);
+      double rest = impl.joints[j.index].length;
+      worst = std::max(worst, (s.length - rest) / rest);
+    }
+  }
+  EXPECT_TRUE(all_finite(w));
+  EXPECT_LT(worst, 0.05);
+}
+
+}  // namespace
+}  // namespace fulcrum
