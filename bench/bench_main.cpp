@@ -1,6 +1,6 @@
 // fulcrum_bench: a table runner over the shared scene builders. For each scene it steps the
 // world N times, R times over, and reports the median ms per step (steps 1..N-1: step 0 builds
-// the first contacts and is excluded), the largest penetration after the first second, the
+// the first contacts and is excluded), the largest penetration and joint error at the end, the
 // number of bodies that moved more than 0.5 m, and the final state hash.
 //
 //   build/bin/fulcrum_bench                       # the default table
@@ -32,6 +32,7 @@ struct Row {
   int steps = 0;
   double ms_per_step = 0.0;
   double max_penetration = 0.0;
+  double max_joint_error = 0.0;
   int moved = 0;
   uint64_t hash = 0;
 };
@@ -56,6 +57,7 @@ Row run(const Entry& e, int repeats, int iterations) {
     auto t1 = std::chrono::steady_clock::now();
     times.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count() / (e.steps - 1));
     penetration = std::max(penetration, world.metrics().max_penetration);
+    row.max_joint_error = world.metrics().max_joint_error;
     int moved = 0, k = 0;
     for (fulcrum::BodyId id : world.bodies()) {
       fulcrum::BodyState s = *world.body_state(id);
@@ -77,9 +79,9 @@ Row run(const Entry& e, int repeats, int iterations) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::vector<Entry> table = {{"large_pyramid", 500},      {"many_pyramids", 500},
-                              {"many_pyramids_grid", 200}, {"tumbler", 750},
-                              {"particle_pile", 300},      {"circle_pile", 300}};
+  std::vector<Entry> table = {
+      {"large_pyramid", 500}, {"many_pyramids", 500}, {"many_pyramids_grid", 200}, {"tumbler", 750},
+      {"particle_pile", 300}, {"circle_pile", 300},   {"joint_grid", 500},         {"cloth", 600}};
   std::vector<Entry> chosen;
   int repeats = 3, steps = 0, iterations = 0;
   bool csv = false;
@@ -124,22 +126,26 @@ int main(int argc, char** argv) {
     }
   }
   if (csv) {
-    std::printf("scene,bodies,steps,ms_per_step,max_penetration_m,moved_over_0.5m,state_hash\n");
+    std::printf(
+        "scene,bodies,steps,ms_per_step,max_penetration_m,max_joint_error_m,moved_over_0.5m,state_"
+        "hash\n");
   } else {
     std::printf(
-        "| scene | bodies | steps | ms/step (median of %d) | max penetration (m) | moved > 0.5 m | "
+        "| scene | bodies | steps | ms/step (median of %d) | max penetration (m) | max joint error "
+        "(m) | moved > 0.5 m | "
         "state hash |\n",
         repeats);
-    std::printf("|---|---|---|---|---|---|---|\n");
+    std::printf("|---|---|---|---|---|---|---|---|\n");
   }
   for (const Entry& e : chosen) {
     Row r = run(e, repeats, iterations);
     if (csv) {
-      std::printf("%s,%d,%d,%.4f,%.6f,%d,%016" PRIx64 "\n", r.scene.c_str(), r.bodies, r.steps,
-                  r.ms_per_step, r.max_penetration, r.moved, r.hash);
+      std::printf("%s,%d,%d,%.4f,%.6f,%.6f,%d,%016" PRIx64 "\n", r.scene.c_str(), r.bodies, r.steps,
+                  r.ms_per_step, r.max_penetration, r.max_joint_error, r.moved, r.hash);
     } else {
-      std::printf("| %s | %d | %d | %.3f | %.4f | %d | %016" PRIx64 " |\n", r.scene.c_str(),
-                  r.bodies, r.steps, r.ms_per_step, r.max_penetration, r.moved, r.hash);
+      std::printf("| %s | %d | %d | %.3f | %.4f | %.4f | %d | %016" PRIx64 " |\n", r.scene.c_str(),
+                  r.bodies, r.steps, r.ms_per_step, r.max_penetration, r.max_joint_error, r.moved,
+                  r.hash);
     }
     std::fflush(stdout);
   }

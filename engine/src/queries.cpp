@@ -121,6 +121,10 @@ WorldMetrics World::metrics() const {
     m.angular_momentum += b.mass * cross(b.center, b.v) + b.inertia * b.w;
     m.max_speed = std::max(m.max_speed, length(b.v));
   }
+  for (int ji = 0; ji < static_cast<int>(w.joints.size()); ++ji) {
+    if (!w.joints[ji].alive) continue;
+    m.max_joint_error = std::max(m.max_joint_error, joint_state(w.joint_id(ji))->linear_error);
+  }
   return m;
 }
 

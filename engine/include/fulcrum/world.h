@@ -70,6 +70,7 @@ struct WorldMetrics {
   Vec2 linear_momentum = Vec2::Zero();  // kg m/s
   double angular_momentum = 0.0;        // about the origin, kg m^2/s
   double max_speed = 0.0;               // largest linear speed of any body, m/s
+  double max_joint_error = 0.0;         // largest JointState::linear_error over all joints, m
 };
 
 struct QueryFilter {
