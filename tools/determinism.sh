@@ -12,6 +12,8 @@ SCENES=(
   "--builtin bounce --ticks 300"
   "--builtin overlap_recovery --ticks 200"
   "--builtin tumbler --ticks 60"
+  "--builtin rope --ticks 200"
+  "--builtin cloth --ticks 120"
 )
 
 build_variant() {  # name, then extra cmake arguments
