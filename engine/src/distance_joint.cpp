@@ -28,13 +28,7 @@ Axis axis_of(const JointFrame& f) {
 
 // Applies impulse `lambda` along u: -P to A at ra, +P to B at rb.
 void apply_axis(const JointFrame& f, const Axis& u, double lambda, SolverBody& a, SolverBody& b) {
-  double px = lambda * u.ux, py = lambda * u.uy;
-  a.vx -= a.inv_mass * px;
-  a.vy -= a.inv_mass * py;
-  a.w -= a.inv_inertia * (f.rax * py - f.ray * px);
-  b.vx += b.inv_mass * px;
-  b.vy += b.inv_mass * py;
-  b.w += b.inv_inertia * (f.rbx * py - f.rby * px);
+  apply_joint_impulse(f, lambda * u.ux, lambda * u.uy, a, b);
 }
 
 double axis_speed(const JointFrame& f, const Axis& u, const SolverBody& a, const SolverBody& b) {

@@ -2,40 +2,16 @@
 // (each type's math is in its own file).
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <string>
 
 #include "fulcrum/trig.h"
 #include "joint_solver.h"
+#include "validation.h"
 #include "world_impl.h"
 
 namespace fulcrum {
 
 namespace {
-
-std::string num(double x) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", x);
-  return buf;
-}
-
-Status finite_field(const char* field, double x) {
-  if (!std::isfinite(x))
-    return invalid_argument(std::string(field) + ": must be finite (got " + num(x) + ")");
-  return {};
-}
-
-Status finite_field(const char* field, const Vec2& v) {
-  if (!is_finite(v)) return invalid_argument(std::string(field) + ": must be finite");
-  return {};
-}
-
-Status non_negative(const char* field, double x) {
-  if (!(x >= 0.0) || !std::isfinite(x)) {
-    return invalid_argument(std::string(field) + ": must be finite and >= 0 (got " + num(x) + ")");
-  }
-  return {};
-}
 
 // The angle of b relative to a, less the reference, in (-pi, pi].
 double relative_angle(const Rot& qa, const Rot& qb, double reference) {
@@ -58,40 +34,42 @@ const char* joint_type_name(JointType type) {
 }
 
 Status validate_distance_joint_def(const DistanceJointDef& d) {
-  FULCRUM_RETURN_IF_ERROR(finite_field("joint.local_anchor_a", d.local_anchor_a));
-  FULCRUM_RETURN_IF_ERROR(finite_field("joint.local_anchor_b", d.local_anchor_b));
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.local_anchor_a", d.local_anchor_a));
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.local_anchor_b", d.local_anchor_b));
   if (!(d.length > 0.0) || !std::isfinite(d.length)) {
-    return invalid_argument("joint.length: must be finite and > 0 (got " + num(d.length) + ")");
+    return invalid_argument("joint.length: must be finite and > 0 (got " + format_number(d.length) +
+                            ")");
   }
-  FULCRUM_RETURN_IF_ERROR(non_negative("joint.min_length", d.min_length));
+  FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.min_length", d.min_length));
   if (!(d.min_length <= d.length)) {
-    return invalid_argument("joint.min_length: must be <= length (got " + num(d.min_length) +
-                            " > " + num(d.length) + ")");
+    return invalid_argument("joint.min_length: must be <= length (got " +
+                            format_number(d.min_length) + " > " + format_number(d.length) + ")");
   }
   if (!(d.max_length >= d.length) || !std::isfinite(d.max_length)) {
     return invalid_argument("joint.max_length: must be finite and >= length (got " +
-                            num(d.max_length) + ")");
+                            format_number(d.max_length) + ")");
   }
-  FULCRUM_RETURN_IF_ERROR(non_negative("joint.hertz", d.hertz));
-  FULCRUM_RETURN_IF_ERROR(non_negative("joint.damping_ratio", d.damping_ratio));
+  FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.hertz", d.hertz));
+  FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.damping_ratio", d.damping_ratio));
   return {};
 }
 
 Status validate_revolute_joint_def(const RevoluteJointDef& d) {
-  FULCRUM_RETURN_IF_ERROR(finite_field("joint.local_anchor_a", d.local_anchor_a));
-  FULCRUM_RETURN_IF_ERROR(finite_field("joint.local_anchor_b", d.local_anchor_b));
-  FULCRUM_RETURN_IF_ERROR(finite_field("joint.reference_angle", d.reference_angle));
-  FULCRUM_RETURN_IF_ERROR(finite_field("joint.lower_angle", d.lower_angle));
-  FULCRUM_RETURN_IF_ERROR(finite_field("joint.upper_angle", d.upper_angle));
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.local_anchor_a", d.local_anchor_a));
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.local_anchor_b", d.local_anchor_b));
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.reference_angle", d.reference_angle));
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.lower_angle", d.lower_angle));
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.upper_angle", d.upper_angle));
   if (d.lower_angle > d.upper_angle) {
-    return invalid_argument("joint.lower_angle: must be <= upper_angle (got " + num(d.lower_angle) +
-                            " > " + num(d.upper_angle) + ")");
+    return invalid_argument("joint.lower_angle: must be <= upper_angle (got " +
+                            format_number(d.lower_angle) + " > " + format_number(d.upper_angle) +
+                            ")");
   }
-  FULCRUM_RETURN_IF_ERROR(finite_field("joint.motor_speed", d.motor_speed));
-  FULCRUM_RETURN_IF_ERROR(non_negative("joint.max_motor_torque", d.max_motor_torque));
-  FULCRUM_RETURN_IF_ERROR(non_negative("joint.hertz", d.hertz));
-  FULCRUM_RETURN_IF_ERROR(non_negative("joint.damping_ratio", d.damping_ratio));
-  FULCRUM_RETURN_IF_ERROR(finite_field("joint.target_angle", d.target_angle));
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.motor_speed", d.motor_speed));
+  FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.max_motor_torque", d.max_motor_torque));
+  FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.hertz", d.hertz));
+  FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.damping_ratio", d.damping_ratio));
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.target_angle", d.target_angle));
   return {};
 }
 

@@ -48,6 +48,17 @@ inline JointFrame joint_frame(const JointRow& r, const SolverBody& a, const Solv
   return f;
 }
 
+// P applied to B at its anchor and -P to A at its anchor.
+inline void apply_joint_impulse(const JointFrame& f, double px, double py, SolverBody& a,
+                                SolverBody& b) {
+  a.vx -= a.inv_mass * px;
+  a.vy -= a.inv_mass * py;
+  a.w -= a.inv_inertia * (f.rax * py - f.ray * px);
+  b.vx += b.inv_mass * px;
+  b.vy += b.inv_mass * py;
+  b.w += b.inv_inertia * (f.rbx * py - f.rby * px);
+}
+
 // The feedback for position error C of a joint row in this pass: bias, mass and impulse
 // scales (see contact_solver.cpp for the soft form).
 inline void joint_bias(const JointStep& st, const Softness& soft, double c, double* bias,

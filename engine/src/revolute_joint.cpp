@@ -34,13 +34,8 @@ void prepare_revolute_joint(const Joint& j, JointRow& r, const SolverBody& a, co
 void warm_start_revolute_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b) {
   JointFrame f = joint_frame(r, a, b);
   double axial = j.spring_impulse + j.motor_impulse + j.lower_impulse - j.upper_impulse;
-  double px = j.linear_impulse.x(), py = j.linear_impulse.y();
-  a.vx -= a.inv_mass * px;
-  a.vy -= a.inv_mass * py;
-  a.w -= a.inv_inertia * ((f.rax * py - f.ray * px) + axial);
-  b.vx += b.inv_mass * px;
-  b.vy += b.inv_mass * py;
-  b.w += b.inv_inertia * ((f.rbx * py - f.rby * px) + axial);
+  apply_joint_impulse(f, j.linear_impulse.x(), j.linear_impulse.y(), a, b);
+  apply_angular(axial, a, b);
 }
 
 void solve_revolute_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
@@ -123,12 +118,7 @@ void solve_revolute_joint(Joint& j, const JointRow& r, const JointStep& st, Solv
   double px = -ms * sx - is * j.linear_impulse.x();
   double py = -ms * sy - is * j.linear_impulse.y();
   j.linear_impulse += Vec2(px, py);
-  a.vx -= a.inv_mass * px;
-  a.vy -= a.inv_mass * py;
-  a.w -= a.inv_inertia * (f.rax * py - f.ray * px);
-  b.vx += b.inv_mass * px;
-  b.vy += b.inv_mass * py;
-  b.w += b.inv_inertia * (f.rbx * py - f.rby * px);
+  apply_joint_impulse(f, px, py, a, b);
 }
 
 }  // namespace fulcrum

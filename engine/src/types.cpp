@@ -1,47 +1,10 @@
 #include "fulcrum/types.h"
 
-#include <cstdio>
 #include <string>
 
+#include "validation.h"
+
 namespace fulcrum {
-
-namespace {
-
-std::string num(double x) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", x);
-  return buf;
-}
-
-// Each check returns an error naming `field` when the value is outside its range.
-Status finite(const char* field, double x) {
-  if (!std::isfinite(x))
-    return invalid_argument(std::string(field) + ": must be finite (got " + num(x) + ")");
-  return {};
-}
-Status finite(const char* field, const Vec2& v) {
-  if (!is_finite(v)) {
-    return invalid_argument(std::string(field) + ": must be finite (got (" + num(v.x()) + ", " +
-                            num(v.y()) + "))");
-  }
-  return {};
-}
-Status above(const char* field, double x, double lo) {
-  if (!(x > lo) || !std::isfinite(x)) {
-    return invalid_argument(std::string(field) + ": must be finite and > " + num(lo) + " (got " +
-                            num(x) + ")");
-  }
-  return {};
-}
-Status in_range(const char* field, double x, double lo, double hi) {
-  if (!(x >= lo && x <= hi)) {
-    return invalid_argument(std::string(field) + ": must be in [" + num(lo) + ", " + num(hi) +
-                            "] (got " + num(x) + ")");
-  }
-  return {};
-}
-
-}  // namespace
 
 const char* body_type_name(BodyType type) {
   switch (type) {
@@ -58,8 +21,8 @@ const char* body_type_name(BodyType type) {
 }
 
 Status validate_settings(const WorldSettings& s) {
-  FULCRUM_RETURN_IF_ERROR(finite("settings.gravity", s.gravity));
-  FULCRUM_RETURN_IF_ERROR(above("settings.dt", s.dt, 0.0));
+  FULCRUM_RETURN_IF_ERROR(check_finite("settings.gravity", s.gravity));
+  FULCRUM_RETURN_IF_ERROR(check_above("settings.dt", s.dt, 0.0));
   if (s.substeps < 1 || s.substeps > 1000) {
     return invalid_argument("settings.substeps: must be in [1, 1000] (got " +
                             std::to_string(s.substeps) + ")");
@@ -68,12 +31,12 @@ Status validate_settings(const WorldSettings& s) {
     return invalid_argument("settings.relax_iterations: must be in [0, 1000] (got " +
                             std::to_string(s.relax_iterations) + ")");
   }
-  FULCRUM_RETURN_IF_ERROR(in_range("settings.contact_hertz", s.contact_hertz, 0.0, 1e6));
+  FULCRUM_RETURN_IF_ERROR(check_in_range("settings.contact_hertz", s.contact_hertz, 0.0, 1e6));
   FULCRUM_RETURN_IF_ERROR(
-      in_range("settings.contact_damping_ratio", s.contact_damping_ratio, 0.0, 1e6));
-  FULCRUM_RETURN_IF_ERROR(in_range("settings.joint_hertz", s.joint_hertz, 0.0, 1e6));
+      check_in_range("settings.contact_damping_ratio", s.contact_damping_ratio, 0.0, 1e6));
+  FULCRUM_RETURN_IF_ERROR(check_in_range("settings.joint_hertz", s.joint_hertz, 0.0, 1e6));
   FULCRUM_RETURN_IF_ERROR(
-      in_range("settings.joint_damping_ratio", s.joint_damping_ratio, 0.0, 1e6));
+      check_in_range("settings.joint_damping_ratio", s.joint_damping_ratio, 0.0, 1e6));
   if (s.velocity_iterations < 1 || s.velocity_iterations > 1000) {
     return invalid_argument("settings.velocity_iterations: must be in [1, 1000] (got " +
                             std::to_string(s.velocity_iterations) + ")");
@@ -82,22 +45,23 @@ Status validate_settings(const WorldSettings& s) {
     return invalid_argument("settings.position_iterations: must be in [0, 1000] (got " +
                             std::to_string(s.position_iterations) + ")");
   }
-  FULCRUM_RETURN_IF_ERROR(in_range("settings.baumgarte", s.baumgarte, 0.0, 1.0));
-  FULCRUM_RETURN_IF_ERROR(in_range("settings.linear_slop", s.linear_slop, 0.0, 1.0));
-  FULCRUM_RETURN_IF_ERROR(above("settings.max_correction_speed", s.max_correction_speed, 0.0));
+  FULCRUM_RETURN_IF_ERROR(check_in_range("settings.baumgarte", s.baumgarte, 0.0, 1.0));
+  FULCRUM_RETURN_IF_ERROR(check_in_range("settings.linear_slop", s.linear_slop, 0.0, 1.0));
   FULCRUM_RETURN_IF_ERROR(
-      in_range("settings.restitution_threshold", s.restitution_threshold, 0.0, 1e6));
+      check_above("settings.max_correction_speed", s.max_correction_speed, 0.0));
   FULCRUM_RETURN_IF_ERROR(
-      in_range("settings.early_exit_tolerance", s.early_exit_tolerance, 0.0, 1e30));
+      check_in_range("settings.restitution_threshold", s.restitution_threshold, 0.0, 1e6));
   FULCRUM_RETURN_IF_ERROR(
-      in_range("settings.speculative_distance", s.speculative_distance, 0.0, 10.0));
-  FULCRUM_RETURN_IF_ERROR(in_range("settings.aabb_margin", s.aabb_margin, 0.0, 100.0));
-  FULCRUM_RETURN_IF_ERROR(above("settings.max_linear_speed", s.max_linear_speed, 0.0));
-  FULCRUM_RETURN_IF_ERROR(above("settings.time_to_sleep", s.time_to_sleep, 0.0));
+      check_in_range("settings.early_exit_tolerance", s.early_exit_tolerance, 0.0, 1e30));
   FULCRUM_RETURN_IF_ERROR(
-      in_range("settings.linear_sleep_tolerance", s.linear_sleep_tolerance, 0.0, 1e6));
+      check_in_range("settings.speculative_distance", s.speculative_distance, 0.0, 10.0));
+  FULCRUM_RETURN_IF_ERROR(check_in_range("settings.aabb_margin", s.aabb_margin, 0.0, 100.0));
+  FULCRUM_RETURN_IF_ERROR(check_above("settings.max_linear_speed", s.max_linear_speed, 0.0));
+  FULCRUM_RETURN_IF_ERROR(check_above("settings.time_to_sleep", s.time_to_sleep, 0.0));
   FULCRUM_RETURN_IF_ERROR(
-      in_range("settings.angular_sleep_tolerance", s.angular_sleep_tolerance, 0.0, 1e6));
+      check_in_range("settings.linear_sleep_tolerance", s.linear_sleep_tolerance, 0.0, 1e6));
+  FULCRUM_RETURN_IF_ERROR(
+      check_in_range("settings.angular_sleep_tolerance", s.angular_sleep_tolerance, 0.0, 1e6));
   return {};
 }
 
@@ -106,21 +70,21 @@ Status validate_body_def(const BodyDef& d) {
     return invalid_argument("body.type: unknown body type " +
                             std::to_string(static_cast<int>(d.type)));
   }
-  FULCRUM_RETURN_IF_ERROR(finite("body.position", d.position));
-  FULCRUM_RETURN_IF_ERROR(finite("body.angle", d.angle));
-  FULCRUM_RETURN_IF_ERROR(finite("body.linear_velocity", d.linear_velocity));
-  FULCRUM_RETURN_IF_ERROR(finite("body.angular_velocity", d.angular_velocity));
-  FULCRUM_RETURN_IF_ERROR(in_range("body.linear_damping", d.linear_damping, 0.0, 1e9));
-  FULCRUM_RETURN_IF_ERROR(in_range("body.angular_damping", d.angular_damping, 0.0, 1e9));
-  FULCRUM_RETURN_IF_ERROR(finite("body.gravity_scale", d.gravity_scale));
+  FULCRUM_RETURN_IF_ERROR(check_finite("body.position", d.position));
+  FULCRUM_RETURN_IF_ERROR(check_finite("body.angle", d.angle));
+  FULCRUM_RETURN_IF_ERROR(check_finite("body.linear_velocity", d.linear_velocity));
+  FULCRUM_RETURN_IF_ERROR(check_finite("body.angular_velocity", d.angular_velocity));
+  FULCRUM_RETURN_IF_ERROR(check_in_range("body.linear_damping", d.linear_damping, 0.0, 1e9));
+  FULCRUM_RETURN_IF_ERROR(check_in_range("body.angular_damping", d.angular_damping, 0.0, 1e9));
+  FULCRUM_RETURN_IF_ERROR(check_finite("body.gravity_scale", d.gravity_scale));
   return {};
 }
 
 Status validate_shape_def(const ShapeDef& d) {
   FULCRUM_RETURN_IF_ERROR(validate_geometry(d.geometry, "shape"));
-  FULCRUM_RETURN_IF_ERROR(in_range("shape.density", d.density, 0.0, 1e12));
-  FULCRUM_RETURN_IF_ERROR(in_range("shape.friction", d.friction, 0.0, 1e6));
-  FULCRUM_RETURN_IF_ERROR(in_range("shape.restitution", d.restitution, 0.0, 1e3));
+  FULCRUM_RETURN_IF_ERROR(check_in_range("shape.density", d.density, 0.0, 1e12));
+  FULCRUM_RETURN_IF_ERROR(check_in_range("shape.friction", d.friction, 0.0, 1e6));
+  FULCRUM_RETURN_IF_ERROR(check_in_range("shape.restitution", d.restitution, 0.0, 1e3));
   return {};
 }
 
@@ -132,17 +96,17 @@ Status validate_chain_def(const ChainDef& d) {
   }
   for (size_t i = 0; i < d.points.size(); ++i) {
     std::string field = "chain.points[" + std::to_string(i) + "]";
-    FULCRUM_RETURN_IF_ERROR(finite(field.c_str(), d.points[i]));
+    FULCRUM_RETURN_IF_ERROR(check_finite(field, d.points[i]));
     size_t j = i + 1 < d.points.size() ? i + 1 : 0;
     if (j == 0 && !d.loop) break;
     if (distance(d.points[i], d.points[j]) <= kGeometryTolerance) {
       return invalid_argument(field +
                               ": coincides with the next point (segments must be longer than " +
-                              num(kGeometryTolerance) + " m)");
+                              format_number(kGeometryTolerance) + " m)");
     }
   }
-  FULCRUM_RETURN_IF_ERROR(in_range("chain.friction", d.friction, 0.0, 1e6));
-  FULCRUM_RETURN_IF_ERROR(in_range("chain.restitution", d.restitution, 0.0, 1e3));
+  FULCRUM_RETURN_IF_ERROR(check_in_range("chain.friction", d.friction, 0.0, 1e6));
+  FULCRUM_RETURN_IF_ERROR(check_in_range("chain.restitution", d.restitution, 0.0, 1e3));
   return {};
 }
 

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "fulcrum/trig.h"
+#include "validation.h"
 #include "world_impl.h"
 
 namespace fulcrum {
@@ -22,15 +23,6 @@ Status stale_body(BodyId id) {
 Status stale_shape(ShapeId id) {
   return not_found(handle_text("shape", id.index, id.generation) +
                    ": unknown or destroyed shape handle");
-}
-
-Status check_finite(const char* field, const Vec2& v) {
-  if (!is_finite(v)) return invalid_argument(std::string(field) + ": must be finite");
-  return {};
-}
-Status check_finite(const char* field, double x) {
-  if (!std::isfinite(x)) return invalid_argument(std::string(field) + ": must be finite");
-  return {};
 }
 
 }  // namespace

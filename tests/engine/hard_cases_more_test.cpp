@@ -9,52 +9,12 @@
 #include "fulcrum/scene.h"
 #include "fulcrum/scenes.h"
 #include "fulcrum/world.h"
+#include "scene_fixture.h"
 
 namespace fulcrum {
 namespace {
 
-SceneDef scene(const char* name) {
-  auto s = scenes::builtin(name);
-  EXPECT_TRUE(s.ok()) << s.status().to_string();
-  return std::move(s).value();
-}
-
-World build(const SceneDef& s) {
-  auto world = build_world(s);
-  EXPECT_TRUE(world.ok()) << world.status().to_string();
-  return std::move(world).value();
-}
-
-World build(const char* name) {
-  return build(scene(name));
-}
-
-std::vector<Vec2> centers(const World& w) {
-  std::vector<Vec2> out;
-  for (BodyId id : w.bodies()) out.push_back(w.body_state(id)->center);
-  return out;
-}
-
-bool all_finite(const World& w) {
-  for (BodyId id : w.bodies()) {
-    BodyState s = *w.body_state(id);
-    if (!is_finite(s.center) || !is_finite(s.linear_velocity) ||
-        !std::isfinite(s.angular_velocity)) {
-      return false;
-    }
-  }
-  return true;
-}
-
-// Steps `ticks` ticks; returns the largest penetration seen after the first second.
-double run(World& w, int ticks) {
-  double worst = 0.0;
-  for (int i = 0; i < ticks; ++i) {
-    w.step();
-    if (w.tick() > 60) worst = std::max(worst, w.metrics().max_penetration);
-  }
-  return worst;
-}
+using namespace fulcrum::testing;
 
 // Case 3: 20 pyramids of base 10 side by side all stand for 500 ticks: no box moves more than
 // 0.5 m from where it was built, nothing turns NaN, and penetration stays within 2 x slop.

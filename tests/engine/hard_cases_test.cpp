@@ -10,44 +10,12 @@
 #include "fulcrum/scene.h"
 #include "fulcrum/scenes.h"
 #include "fulcrum/world.h"
+#include "scene_fixture.h"
 
 namespace fulcrum {
 namespace {
 
-World build(const char* name) {
-  auto scene = scenes::builtin(name);
-  EXPECT_TRUE(scene.ok()) << scene.status().to_string();
-  auto world = build_world(*scene);
-  EXPECT_TRUE(world.ok()) << world.status().to_string();
-  return std::move(world).value();
-}
-
-std::vector<Vec2> centers(const World& w) {
-  std::vector<Vec2> out;
-  for (BodyId id : w.bodies()) out.push_back(w.body_state(id)->center);
-  return out;
-}
-
-bool all_finite(const World& w) {
-  for (BodyId id : w.bodies()) {
-    BodyState s = *w.body_state(id);
-    if (!is_finite(s.center) || !is_finite(s.linear_velocity) ||
-        !std::isfinite(s.angular_velocity)) {
-      return false;
-    }
-  }
-  return true;
-}
-
-// Steps `ticks` ticks; returns the largest penetration seen after the first second.
-double run(World& w, int ticks) {
-  double worst = 0.0;
-  for (int i = 0; i < ticks; ++i) {
-    w.step();
-    if (w.tick() > 60) worst = std::max(worst, w.metrics().max_penetration);
-  }
-  return worst;
-}
+using namespace fulcrum::testing;
 
 // Case 1: 20 boxes offset alternately by +-1 cm stand for 10 s; the top box moves less than
 // 5 cm sideways and penetration stays within 2 x slop.

@@ -9,21 +9,21 @@
 #include "fulcrum/scene.h"
 #include "fulcrum/scenes.h"
 #include "fulcrum/world.h"
+#include "scene_fixture.h"
 #include "world_impl.h"
 
 namespace fulcrum {
 namespace {
 
+using namespace fulcrum::testing;
+
 // The scene with the given substeps and joint stiffness (joint feedback is limited to about a
 // quarter of the substep rate).
 World build(const char* name, int substeps, double joint_hertz) {
-  auto scene = scenes::builtin(name);
-  EXPECT_TRUE(scene.ok()) << scene.status().to_string();
-  scene->settings.substeps = substeps;
-  scene->settings.joint_hertz = joint_hertz;
-  auto world = build_world(*scene);
-  EXPECT_TRUE(world.ok()) << world.status().to_string();
-  return std::move(world).value();
+  SceneDef s = scene(name);
+  s.settings.substeps = substeps;
+  s.settings.joint_hertz = joint_hertz;
+  return testing::build(s);
 }
 
 std::vector<JointId> all_joints(const World& w) {
@@ -33,14 +33,6 @@ std::vector<JointId> all_joints(const World& w) {
     if (impl.joints[i].alive) out.push_back(impl.joint_id(i));
   }
   return out;
-}
-
-bool all_finite(const World& w) {
-  for (BodyId id : w.bodies()) {
-    BodyState s = *w.body_state(id);
-    if (!is_finite(s.center) || !is_finite(s.linear_velocity)) return false;
-  }
-  return true;
 }
 
 // Case 9: 100 x 100 circles pinned to their neighbours, hanging from 7 static bodies, for 500
