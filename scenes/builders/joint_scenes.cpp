@@ -149,6 +149,76 @@ SceneDef cloth() {
   return s;
 }
 
+int add_ragdoll(SceneDef* scene, const RagdollOptions& o) {
+  struct Part {
+    double y;       // centre height at scale 1, m
+    double half;    // half length of the capsule's core, m
+    double radius;  // m
+  };
+  // pelvis, torso, head, upper arm x2, lower arm x2, thigh x2, shin x2
+  const Part parts[11] = {{0.95, 0.05, 0.12},  {1.25, 0.12, 0.13}, {1.58, 0.03, 0.10},
+                          {1.28, 0.12, 0.05},  {1.28, 0.12, 0.05}, {1.00, 0.12, 0.045},
+                          {1.00, 0.12, 0.045}, {0.65, 0.15, 0.07}, {0.65, 0.15, 0.07},
+                          {0.26, 0.15, 0.06},  {0.26, 0.15, 0.06}};
+  const double s = o.scale;
+  const int first = static_cast<int>(scene->bodies.size());
+  for (const Part& p : parts) {
+    SceneBody body;
+    body.def.type = BodyType::kDynamic;
+    body.def.position = o.feet + Vec2(0.0, s * p.y);
+    ShapeDef shape;
+    shape.geometry = Capsule{Vec2(0.0, -s * p.half), Vec2(0.0, s * p.half), s * p.radius};
+    shape.density = o.density;
+    shape.friction = 0.6;
+    shape.filter.group_index = o.group;
+    body.shapes.push_back(shape);
+    scene->bodies.push_back(body);
+  }
+  struct Hinge {
+    int a, b;      // parts
+    double y;      // pivot height at scale 1, m
+    double lower;  // rad
+    double upper;  // rad
+  };
+  const Hinge hinges[10] = {
+      {0, 1, 1.08, -0.6, 0.3},   // waist
+      {1, 2, 1.45, -0.4, 0.4},   // neck
+      {1, 3, 1.40, -1.5, 2.5},   // shoulders
+      {1, 4, 1.40, -1.5, 2.5},   //
+      {3, 5, 1.14, -2.5, 0.0},   // elbows
+      {4, 6, 1.14, -2.5, 0.0},   //
+      {0, 7, 0.85, -0.4, 1.6},   // hips
+      {0, 8, 0.85, -0.4, 1.6},   //
+      {7, 9, 0.44, -2.4, 0.0},   // knees
+      {8, 10, 0.44, -2.4, 0.0},  //
+  };
+  for (const Hinge& h : hinges) {
+    RevoluteJointDef def;
+    def.local_anchor_a = Vec2(0.0, s * (h.y - parts[h.a].y));
+    def.local_anchor_b = Vec2(0.0, s * (h.y - parts[h.b].y));
+    def.enable_limit = true;
+    def.lower_angle = h.lower;
+    def.upper_angle = h.upper;
+    def.enable_motor = true;  // joint friction: hold still up to a small torque
+    def.max_motor_torque = o.joint_friction * s * s;
+    scene->joints.push_back(SceneJoint{first + h.a, first + h.b, def});
+  }
+  return first;
+}
+
+// HARD_CASES 12: 50 ragdolls dropped from 10 m (feet height) onto the ground.
+SceneDef ragdolls() {
+  SceneDef s;
+  add_ground(&s, 60.0);
+  for (int i = 0; i < 50; ++i) {
+    RagdollOptions o;
+    o.feet = Vec2(-24.5 + 1.0 * i, 10.0 + 0.5 * (i % 3));
+    o.group = -(i + 1);
+    add_ragdoll(&s, o);
+  }
+  return s;
+}
+
 SceneDef rope() {
   SceneDef s;
   add_ground(&s, 30.0);

@@ -9,5 +9,6 @@ SceneDef joint_grid();  // 100 x 100 circles, revolute joints to the neighbours 
 SceneDef bridge();      // 160 planks on revolute joints, both ends anchored
 SceneDef cloth();       // 30 x 30 particles, structural and shear distance joints
 SceneDef rope();        // a 40-particle rope pinned at one end, falling onto boxes
+SceneDef ragdolls();    // 50 ragdolls dropped 10 m onto the ground
 
 }  // namespace fulcrum::scenes

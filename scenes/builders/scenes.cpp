@@ -255,6 +255,7 @@ const std::map<std::string, std::function<SceneDef()>, std::less<>>& registry() 
       {"bridge", bridge},
       {"cloth", cloth},
       {"rope", rope},
+      {"ragdolls", ragdolls},
       {"mixed", mixed},
       {"tumbler", tumbler},
       {"particle_pile", [] { return pile(BodyType::kParticle); }},

@@ -68,6 +68,20 @@ struct ClothOptions {
 };
 int add_cloth(SceneDef* scene, const ClothOptions& options);
 
+// A ragdoll of 11 capsules (pelvis, torso, head, upper and lower arms, thighs, shins) on 10
+// revolute joints with human-like angle limits and a little joint friction (a motor with
+// target speed 0 and a small torque limit), standing with its feet at `feet` (side view).
+// Its shapes share collision group `group` (< 0: a ragdoll never collides with itself).
+// Returns the index of its pelvis in scene->bodies.
+struct RagdollOptions {
+  Vec2 feet = Vec2::Zero();      // m
+  double scale = 1.0;            // > 0: 1 is about 1.75 m tall
+  int32_t group = -1;            // collision group of all its shapes
+  double joint_friction = 0.05;  // N m at scale 1 (scaled by scale^2)
+  double density = 1.0;          // kg/m^2
+};
+int add_ragdoll(SceneDef* scene, const RagdollOptions& options);
+
 // Named scenes (HARD_CASES.md and the benchmark table), ground included.
 std::vector<std::string> builtin_names();
 Result<SceneDef> builtin(std::string_view name);
