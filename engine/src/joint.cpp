@@ -13,6 +13,15 @@ namespace fulcrum {
 
 namespace {
 
+// The implicit spring of frequency `hertz` and damping ratio `zeta` over substep h (see
+// contact_solver.cpp); rigid (all zero feedback) for hertz 0.
+Softness joint_softness(double hertz, double zeta, double h) {
+  if (hertz == 0.0) return Softness{};
+  double omega = 2.0 * kPi * hertz;
+  double a1 = 2.0 * zeta + h * omega, a2 = h * omega * a1, a3 = 1.0 / (1.0 + a2);
+  return Softness{omega / a1, a2 * a3, a3};
+}
+
 // The angle of b relative to a, less the reference, in (-pi, pi].
 double relative_angle(const Rot& qa, const Rot& qb, double reference) {
   double angle = inv_mul(qa, qb).angle() - reference;
@@ -29,6 +38,8 @@ const char* joint_type_name(JointType type) {
       return "distance";
     case JointType::kRevolute:
       return "revolute";
+    case JointType::kWeld:
+      return "weld";
   }
   return "unknown";
 }
@@ -51,6 +62,18 @@ Status validate_distance_joint_def(const DistanceJointDef& d) {
   }
   FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.hertz", d.hertz));
   FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.damping_ratio", d.damping_ratio));
+  return {};
+}
+
+Status validate_weld_joint_def(const WeldJointDef& d) {
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.local_anchor_a", d.local_anchor_a));
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.local_anchor_b", d.local_anchor_b));
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.reference_angle", d.reference_angle));
+  FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.linear_hertz", d.linear_hertz));
+  FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.linear_damping_ratio", d.linear_damping_ratio));
+  FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.angular_hertz", d.angular_hertz));
+  FULCRUM_RETURN_IF_ERROR(
+      check_non_negative("joint.angular_damping_ratio", d.angular_damping_ratio));
   return {};
 }
 
@@ -119,12 +142,7 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
   std::sort(s.joints.begin(), s.joints.end());
   s.joints.erase(std::unique(s.joints.begin(), s.joints.end()), s.joints.end());
 
-  Softness soft{};
-  if (settings.joint_hertz > 0.0) {
-    double omega = 2.0 * kPi * settings.joint_hertz, zeta = settings.joint_damping_ratio;
-    double a1 = 2.0 * zeta + h * omega, a2 = h * omega * a1, a3 = 1.0 / (1.0 + a2);
-    soft = Softness{omega / a1, a2 * a3, a3};
-  }
+  const Softness soft = joint_softness(settings.joint_hertz, settings.joint_damping_ratio, h);
   s.joint_rows.resize(s.joints.size());
   for (size_t k = 0; k < s.joints.size(); ++k) {
     Joint& j = joints[s.joints[k]];
@@ -149,16 +167,14 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     r.dcx = bb.center.x() - ba.center.x();
     r.dcy = bb.center.y() - ba.center.y();
     r.soft = soft;
-    if (j.hertz > 0.0) {
-      double omega = 2.0 * kPi * j.hertz, zeta = j.damping_ratio;
-      double a1 = 2.0 * zeta + h * omega, a2 = h * omega * a1, a3 = 1.0 / (1.0 + a2);
-      r.spring = Softness{omega / a1, a2 * a3, a3};
-    }
+    r.spring = joint_softness(j.hertz, j.damping_ratio, h);
+    r.angular_spring = joint_softness(j.angular_hertz, j.angular_damping_ratio, h);
     const SolverBody& a = s.bodies[r.ia];
     const SolverBody& b = s.bodies[r.ib];
     if (j.type == JointType::kDistance) {
       prepare_distance_joint(j, r, a, b);
     } else {
+      // Revolute and weld: the angle row's mass and the joint angle at tick start.
       r.angle = relative_angle(ba.xf.q, bb.xf.q, j.reference_angle);
       prepare_revolute_joint(j, r, a, b);
     }
@@ -171,10 +187,16 @@ void WorldImpl::warm_start_joints() {
     Joint& j = joints[r.joint];
     SolverBody& a = s.bodies[r.ia];
     SolverBody& b = s.bodies[r.ib];
-    if (j.type == JointType::kDistance) {
-      warm_start_distance_joint(j, r, a, b);
-    } else {
-      warm_start_revolute_joint(j, r, a, b);
+    switch (j.type) {
+      case JointType::kDistance:
+        warm_start_distance_joint(j, r, a, b);
+        break;
+      case JointType::kRevolute:
+        warm_start_revolute_joint(j, r, a, b);
+        break;
+      case JointType::kWeld:
+        warm_start_weld_joint(j, r, a, b);
+        break;
     }
   }
 }
@@ -192,10 +214,53 @@ void WorldImpl::solve_joints(bool use_bias) {
     Joint& j = joints[r.joint];
     SolverBody& a = s.bodies[r.ia];
     SolverBody& b = s.bodies[r.ib];
-    if (j.type == JointType::kDistance) {
-      solve_distance_joint(j, r, st, a, b);
-    } else {
-      solve_revolute_joint(j, r, st, a, b);
+    switch (j.type) {
+      case JointType::kDistance:
+        solve_distance_joint(j, r, st, a, b);
+        break;
+      case JointType::kRevolute:
+        solve_revolute_joint(j, r, st, a, b);
+        break;
+      case JointType::kWeld:
+        solve_weld_joint(j, r, st, a, b);
+        break;
+    }
+  }
+}
+
+namespace {
+
+// The force (N) and torque (N m) a joint applied to body B over the last tick.
+void joint_reaction(const Joint& j, double inv_h, const Vec2& axis, Vec2* force, double* torque) {
+  if (j.type == JointType::kDistance) {
+    *force =
+        inv_h * (j.axial_impulse + j.spring_impulse + j.lower_impulse - j.upper_impulse) * axis;
+    *torque = 0.0;
+  } else if (j.type == JointType::kRevolute) {
+    *force = inv_h * j.linear_impulse;
+    *torque = inv_h * (j.spring_impulse + j.motor_impulse + j.lower_impulse - j.upper_impulse);
+  } else {
+    *force = inv_h * j.linear_impulse;
+    *torque = inv_h * j.axial_impulse;
+  }
+}
+
+}  // namespace
+
+void WorldImpl::break_joints() {
+  const double inv_h = settings.substeps / settings.dt;
+  for (int ji : solver_scratch.joints) {
+    Joint& j = joints[ji];
+    if (!j.alive || (std::isinf(j.break_force) && std::isinf(j.break_torque))) continue;
+    Vec2 force;
+    double torque;
+    joint_reaction(j, inv_h, Vec2(1.0, 0.0), &force, &torque);
+    // A distance joint's force lies along its axis: its size does not depend on the axis.
+    if (length(force) > j.break_force || std::abs(torque) > j.break_torque) {
+      events.joints_broken.push_back(joint_id(ji));
+      wake_island(j.body_a);
+      wake_island(j.body_b);
+      destroy_joint_at(ji);
     }
   }
 }
@@ -291,6 +356,32 @@ Result<JointId> World::create_revolute_joint(const RevoluteJointDef& def) {
   return impl_->joint_id(*ji);
 }
 
+Result<JointId> World::create_weld_joint(const WeldJointDef& def) {
+  FULCRUM_RETURN_IF_ERROR(validate_weld_joint_def(def));
+  Result<int> ji = add_joint(*impl_, def.body_a, def.body_b, def.collide_connected);
+  if (!ji.ok()) return ji.status();
+  Joint& j = impl_->joints[*ji];
+  j.type = JointType::kWeld;
+  j.local_a = def.local_anchor_a;
+  j.local_b = def.local_anchor_b;
+  j.reference_angle = def.reference_angle;
+  j.hertz = def.linear_hertz;
+  j.damping_ratio = def.linear_damping_ratio;
+  j.angular_hertz = def.angular_hertz;
+  j.angular_damping_ratio = def.angular_damping_ratio;
+  return impl_->joint_id(*ji);
+}
+
+Status World::set_joint_break_limits(JointId id, double force, double torque) {
+  int ji = impl_->joint_index(id);
+  if (ji == kNullIndex) return not_found("joint: unknown or destroyed joint handle");
+  if (!(force >= 0.0)) return invalid_argument("break_force: must be >= 0 (infinity: never)");
+  if (!(torque >= 0.0)) return invalid_argument("break_torque: must be >= 0 (infinity: never)");
+  impl_->joints[ji].break_force = force;
+  impl_->joints[ji].break_torque = torque;
+  return {};
+}
+
 Status World::destroy_joint(JointId id) {
   int ji = impl_->joint_index(id);
   if (ji == kNullIndex) {
@@ -334,19 +425,16 @@ Result<JointState> World::joint_state(JointId id) const {
   s.length = length(d);
   // Impulses are per substep: force = impulse / substep.
   const double inv_h = w.settings.substeps / w.settings.dt;
+  joint_reaction(j, inv_h, normalize_or_zero(d), &s.reaction_force, &s.reaction_torque);
   if (j.type == JointType::kDistance) {
-    Vec2 u = normalize_or_zero(d);
-    double axial = j.axial_impulse + j.spring_impulse + j.lower_impulse - j.upper_impulse;
-    s.reaction_force = inv_h * axial * u;
     s.linear_error = std::max({0.0, j.min_length - s.length, s.length - j.max_length});
   } else {
-    s.reaction_force = inv_h * j.linear_impulse;
-    s.reaction_torque =
-        inv_h * (j.spring_impulse + j.motor_impulse + j.lower_impulse - j.upper_impulse);
     s.motor_torque = inv_h * j.motor_impulse;
     s.angle = relative_angle(a.xf.q, b.xf.q, j.reference_angle);
     s.linear_error = s.length;
-    if (j.enable_limit) {
+    if (j.type == JointType::kWeld) {
+      s.angular_error = std::abs(s.angle);
+    } else if (j.enable_limit) {
       s.angular_error = std::max({0.0, j.lower_angle - s.angle, s.angle - j.upper_angle});
     }
   }

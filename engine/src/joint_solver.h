@@ -18,7 +18,8 @@ struct JointRow {
   double angle = 0.0;           // revolute: joint angle at tick start
   double axial_mass = 0.0;      // distance: along the axis; revolute: 1 / (iA + iB)
   Softness soft;                // position feedback
-  Softness spring;              // the joint's own spring
+  Softness spring;              // the joint's own spring (weld: linear part)
+  Softness angular_spring;      // weld: angular part
 };
 
 // Context shared by every joint row of one substep.
@@ -80,6 +81,10 @@ void prepare_distance_joint(const Joint& j, JointRow& r, const SolverBody& a, co
 void warm_start_distance_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b);
 void solve_distance_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
                           SolverBody& b);
+
+void warm_start_weld_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b);
+void solve_weld_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
+                      SolverBody& b);
 
 void prepare_revolute_joint(const Joint& j, JointRow& r, const SolverBody& a, const SolverBody& b);
 void warm_start_revolute_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b);

@@ -94,6 +94,8 @@ uint64_t World::state_hash() const {
     h.add(j.motor_impulse);
     h.add(j.spring_impulse);
     h.add(j.motor_speed);
+    h.add(j.break_force);
+    h.add(j.break_torque);
   }
   for (int i : w.free_joints) h.add(i);
   for (int i : w.free_bodies) h.add(i);

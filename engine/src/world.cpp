@@ -595,6 +595,7 @@ void World::step() {
   std::sort(awake.begin(), awake.end());
 
   w.solve(awake);
+  w.break_joints();
 
   for (int bi : awake) w.synchronize_shapes(bi);
   w.update_sleep(awake);

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "contact_solver.h"
@@ -76,8 +77,12 @@ struct Joint {
   double lower_angle = 0.0, upper_angle = 0.0;
   double motor_speed = 0.0, max_motor_torque = 0.0;
   double target_angle = 0.0;
-  // Springs (both types).
+  // Springs (distance, revolute); weld: the linear part's spring.
   double hertz = 0.0, damping_ratio = 0.0;
+  // Weld: the angular part's spring.
+  double angular_hertz = 0.0, angular_damping_ratio = 0.0;
+  double break_force = std::numeric_limits<double>::infinity();
+  double break_torque = std::numeric_limits<double>::infinity();
   // Accumulated impulses, per substep (warm starting carries them across ticks).
   Vec2 linear_impulse = Vec2::Zero();  // revolute point rows
   double axial_impulse = 0.0;          // distance: rigid row or spring
@@ -144,6 +149,8 @@ class WorldImpl {
   void prepare_joints(const std::vector<int>& awake, double h);
   void warm_start_joints();
   void solve_joints(bool use_bias);
+  // Removes joints whose last tick's reaction passed their break limits.
+  void break_joints();
 
   // --- bodies (world.cpp) ---
   void update_mass(int body);

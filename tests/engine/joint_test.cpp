@@ -326,5 +326,65 @@ TEST(JointTest, DestroyingABodyRemovesItsJointsAndJointedBodiesDoNotCollide) {
   EXPECT_EQ(w.events().joints_destroyed[0], id);
 }
 
+BodyId box(World& w, const Vec2& p, double hx, double hy) {
+  BodyDef def;
+  def.type = BodyType::kDynamic;
+  def.position = p;
+  BodyId id = *w.create_body(def);
+  ShapeDef sd;
+  sd.geometry = make_box(hx, hy);
+  EXPECT_TRUE(w.create_shape(id, sd).ok());
+  return id;
+}
+
+// A 2 m beam welded at one end to a wall holds its pose under gravity: the joint's point
+// stays within 1 cm and its angle within 0.02 rad (soft joint feedback gives a little under
+// the beam's moment, m g L / 2).
+TEST(JointTest, WeldHoldsACantilever) {
+  World w;
+  BodyId wall = static_body(w, Vec2::Zero());
+  BodyId beam = box(w, Vec2(1.0, 0.0), 1.0, 0.1);
+  WeldJointDef def;
+  def.body_a = wall;
+  def.body_b = beam;
+  def.local_anchor_b = Vec2(-1.0, 0.0);
+  JointId id = *w.create_weld_joint(def);
+  for (int i = 0; i < 300; ++i) w.step();
+  JointState s = *w.joint_state(id);
+  EXPECT_LT(s.linear_error, 0.01);
+  EXPECT_LT(std::abs(s.angle), 0.02);
+  // At rest the weld carries the beam: force m g up, torque m g L / 2 (L / 2 = 1 m lever).
+  double m = w.body_state(beam)->mass;
+  EXPECT_NEAR(s.reaction_force.y(), m * 10.0, 0.01 * m * 10.0);
+  EXPECT_NEAR(std::abs(s.reaction_torque), m * 10.0 * 1.0, 0.02 * m * 10.0);
+}
+
+// A weld with a break force between the load it carries (m g) and twice that holds until an
+// extra push of m g arrives, then breaks on that very tick and reports it; the body falls.
+TEST(JointTest, WeldBreaksOnTheTickItsLimitIsPassed) {
+  World w;
+  BodyId ceiling = static_body(w, Vec2::Zero());
+  BodyId weight = box(w, Vec2(0.0, -0.5), 0.5, 0.5);
+  WeldJointDef def;
+  def.body_a = ceiling;
+  def.body_b = weight;
+  def.local_anchor_b = Vec2(0.0, 0.5);
+  JointId id = *w.create_weld_joint(def);
+  double m = w.body_state(weight)->mass;  // 1 kg
+  ASSERT_TRUE(w.set_joint_break_limits(id, 1.5 * m * 10.0, 1e9).ok());
+  for (int i = 0; i < 120; ++i) {
+    w.step();
+    ASSERT_TRUE(w.events().joints_broken.empty()) << "tick " << i;
+  }
+  ASSERT_TRUE(w.apply_force_to_center(weight, Vec2(0.0, -m * 10.0)).ok());
+  w.step();
+  ASSERT_EQ(w.events().joints_broken.size(), 1u);
+  EXPECT_EQ(w.events().joints_broken[0], id);
+  EXPECT_FALSE(w.is_valid(id));
+  for (int i = 0; i < 30; ++i) w.step();
+  EXPECT_LT(w.body_state(weight)->center.y(), -1.0);  // falling freely
+  EXPECT_FALSE(w.set_joint_break_limits(id, 1.0, 1.0).ok());
+}
+
 }  // namespace
 }  // namespace fulcrum

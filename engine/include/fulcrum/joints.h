@@ -17,7 +17,7 @@ struct JointId {
   friend bool operator==(const JointId&, const JointId&) = default;
 };
 
-enum class JointType : uint8_t { kDistance = 0, kRevolute = 1 };
+enum class JointType : uint8_t { kDistance = 0, kRevolute = 1, kWeld = 2 };
 const char* joint_type_name(JointType type);
 
 // Keeps the distance between two anchor points in [min_length, max_length]. A rod has
@@ -58,6 +58,22 @@ struct RevoluteJointDef {
   bool collide_connected = false;
 };
 
+// Glues two bodies together: the point constraint plus an angle row (C = angle_b - angle_a -
+// reference). Rigid by default (the world's joint feedback); with linear_hertz or
+// angular_hertz > 0 that part becomes a spring of that frequency.
+struct WeldJointDef {
+  BodyId body_a;
+  BodyId body_b;
+  Vec2 local_anchor_a = Vec2::Zero();  // in body A's frame, m
+  Vec2 local_anchor_b = Vec2::Zero();  // in body B's frame, m
+  double reference_angle = 0.0;        // angle_b - angle_a to hold, rad
+  double linear_hertz = 0.0;           // Hz, >= 0 (0: rigid)
+  double linear_damping_ratio = 0.0;   // >= 0
+  double angular_hertz = 0.0;          // Hz, >= 0 (0: rigid)
+  double angular_damping_ratio = 0.0;  // >= 0
+  bool collide_connected = false;
+};
+
 // What a joint reports: its reaction on body B and how far it is from satisfied.
 struct JointState {
   JointType type = JointType::kDistance;
@@ -75,7 +91,13 @@ struct JointState {
   double angular_error = 0.0;          // rad: how far the angle is outside the limits
 };
 
+// Every joint can break: when the force it applies exceeds break_force (N) or the torque
+// break_torque (N m) over a tick, it is removed at the end of that tick and reported in
+// StepEvents::joints_broken. Both default to infinity (never breaks); set with
+// World::set_joint_break_limits.
+
 Status validate_distance_joint_def(const DistanceJointDef& def);
+Status validate_weld_joint_def(const WeldJointDef& def);
 Status validate_revolute_joint_def(const RevoluteJointDef& def);
 
 }  // namespace fulcrum

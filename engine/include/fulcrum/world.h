@@ -51,6 +51,8 @@ struct SensorEvent {
 struct StepEvents {
   // Joints removed since the previous step because a body they held was destroyed.
   std::vector<JointId> joints_destroyed;
+  // Joints that broke in the last step (their reaction passed their break limits).
+  std::vector<JointId> joints_broken;
   std::vector<ContactEvent> contact_begin;
   std::vector<ContactEvent> contact_end;
   std::vector<SensorEvent> sensor_begin;
@@ -134,6 +136,9 @@ class World {
   // --- Joints (joints.h). Destroying a body destroys its joints. ---------------------------
   Result<JointId> create_distance_joint(const DistanceJointDef& def);
   Result<JointId> create_revolute_joint(const RevoluteJointDef& def);
+  Result<JointId> create_weld_joint(const WeldJointDef& def);
+  // Force (N) and torque (N m) above which the joint breaks; infinity: never. Both >= 0.
+  Status set_joint_break_limits(JointId id, double force, double torque);
   Status destroy_joint(JointId id);
   bool is_valid(JointId id) const;
   Result<JointState> joint_state(JointId id) const;
