@@ -131,6 +131,13 @@ void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScr
       vy *= f;
     }
     if (b.angular_damping != 0.0) av *= 1.0 / (1.0 + h * b.angular_damping);
+    if (b.drag != 0.0) {
+      // Quadratic drag F = -c v |v|, taken implicitly in |v| (v2 = v1 / (1 + h c |v1| / m)):
+      // stable for any c, and exact at terminal velocity, where gravity and drag balance.
+      double f = 1.0 / (1.0 + h * b.inv_mass * b.drag * std::sqrt(vx * vx + vy * vy));
+      vx *= f;
+      vy *= f;
+    }
     double speed2 = vx * vx + vy * vy;
     if (speed2 > max_speed * max_speed) {
       double f = max_speed / std::sqrt(speed2);

@@ -77,6 +77,7 @@ Status validate_body_def(const BodyDef& d) {
   FULCRUM_RETURN_IF_ERROR(check_in_range("body.linear_damping", d.linear_damping, 0.0, 1e9));
   FULCRUM_RETURN_IF_ERROR(check_in_range("body.angular_damping", d.angular_damping, 0.0, 1e9));
   FULCRUM_RETURN_IF_ERROR(check_finite("body.gravity_scale", d.gravity_scale));
+  FULCRUM_RETURN_IF_ERROR(check_in_range("body.drag", d.drag, 0.0, 1e12));
   return {};
 }
 

@@ -186,6 +186,7 @@ Result<BodyId> World::create_body(const BodyDef& def) {
   b.linear_damping = def.linear_damping;
   b.angular_damping = def.angular_damping;
   b.gravity_scale = def.gravity_scale;
+  b.drag = def.drag;
   b.fixed_rotation = def.fixed_rotation;
   b.enable_sleep = def.enable_sleep;
   b.user_data = def.user_data;

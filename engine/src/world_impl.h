@@ -33,6 +33,7 @@ struct Body {
   double mass = 0.0, inv_mass = 0.0;
   double inertia = 0.0, inv_inertia = 0.0;  // about the centre of mass
   double linear_damping = 0.0, angular_damping = 0.0, gravity_scale = 1.0;
+  double drag = 0.0;  // quadratic drag coefficient, kg/m
   bool fixed_rotation = false;
   bool awake = false;
   bool enable_sleep = true;

@@ -395,6 +395,8 @@ Status body_from_proto(const v1::Body& p, const std::string& path, SceneBody* bo
   def.angular_damping = p.angular_damping();
   CONVERT_RETURN_IF_ERROR(read_opt(join(path, "gravity_scale"), p.has_gravity_scale(),
                                    p.gravity_scale(), Range::kFinite, &def.gravity_scale));
+  CONVERT_RETURN_IF_ERROR(check(join(path, "drag"), p.drag(), Range::kNonNegative));
+  def.drag = p.drag();
   def.fixed_rotation = p.fixed_rotation();
   if (p.has_awake()) def.awake = p.awake();
   if (p.has_enable_sleep()) def.enable_sleep = p.enable_sleep();
@@ -702,6 +704,7 @@ void body_to_proto(const SceneBody& b, v1::Body* out) {
   out->set_linear_damping(def.linear_damping);
   out->set_angular_damping(def.angular_damping);
   if (!same(def.gravity_scale, d.gravity_scale)) out->set_gravity_scale(def.gravity_scale);
+  out->set_drag(def.drag);
   out->set_fixed_rotation(def.fixed_rotation);
   if (def.awake != d.awake) out->set_awake(def.awake);
   if (def.enable_sleep != d.enable_sleep) out->set_enable_sleep(def.enable_sleep);

@@ -140,6 +140,7 @@ std::string diff_body(const std::string& p, const SceneBody& a, const SceneBody&
   RETURN_IF_DIFF(diff_double(p + ".linear_damping", x.linear_damping, y.linear_damping));
   RETURN_IF_DIFF(diff_double(p + ".angular_damping", x.angular_damping, y.angular_damping));
   RETURN_IF_DIFF(diff_double(p + ".gravity_scale", x.gravity_scale, y.gravity_scale));
+  RETURN_IF_DIFF(diff_double(p + ".drag", x.drag, y.drag));
   RETURN_IF_DIFF(diff_value(p + ".fixed_rotation", x.fixed_rotation, y.fixed_rotation));
   RETURN_IF_DIFF(diff_value(p + ".awake", x.awake, y.awake));
   RETURN_IF_DIFF(diff_value(p + ".enable_sleep", x.enable_sleep, y.enable_sleep));
@@ -272,6 +273,7 @@ SceneDef AwkwardScene() {
   body.def.linear_damping = 0.05;
   body.def.angular_damping = 0.5;
   body.def.gravity_scale = -0.5;
+  body.def.drag = 0.125;
   body.def.fixed_rotation = true;
   body.def.awake = false;
   body.def.enable_sleep = false;
@@ -325,7 +327,7 @@ SceneDef AwkwardScene() {
 // numbers (x86-64 sizes).
 TEST(SceneSchema, EngineDefinitionStructsAreCovered) {
   EXPECT_EQ(sizeof(WorldSettings), 192u);
-  EXPECT_EQ(sizeof(BodyDef), 112u);
+  EXPECT_EQ(sizeof(BodyDef), 128u);
   EXPECT_EQ(sizeof(ShapeDef), 368u);
   EXPECT_EQ(sizeof(ChainDef), 80u);
   EXPECT_EQ(sizeof(Filter), 24u);

@@ -524,3 +524,36 @@ TEST(WorldTest, BallStaysOnChainTerrain) {
 
 }  // namespace
 }  // namespace fulcrum
+
+namespace fulcrum {
+namespace {
+
+// Quadratic drag F = -c v |v|: a falling ball approaches the terminal speed sqrt(m g / c)
+// (within 0.5 %). The update, gravity then v / (1 + h c |v| / m) per substep h, settles on
+// its own fixed point v^2 + h g v = m g / c exactly (within 1e-9), h g / 2 below the
+// continuous answer.
+TEST(WorldTest, QuadraticDragGivesTheTerminalVelocity) {
+  World w;
+  BodyDef def;
+  def.type = BodyType::kDynamic;
+  def.position = Vec2(0.0, 1000.0);
+  def.drag = 0.05;
+  BodyId id = *w.create_body(def);
+  ShapeDef sd;
+  sd.geometry = Circle{Vec2::Zero(), 0.5};
+  ASSERT_TRUE(w.create_shape(id, sd).ok());
+  double m = w.body_state(id)->mass;
+  for (int i = 0; i < 1200; ++i) w.step();
+  double terminal = std::sqrt(m * 10.0 / 0.05);
+  double speed = -w.body_state(id)->linear_velocity.y();
+  EXPECT_NEAR(speed, terminal, 0.005 * terminal);
+  double hg = w.settings().dt / w.settings().substeps * 10.0;
+  double fixed_point = 0.5 * (-hg + std::sqrt(hg * hg + 4.0 * m * 10.0 / 0.05));
+  EXPECT_NEAR(speed, fixed_point, 1e-9 * fixed_point);
+  BodyDef bad = def;
+  bad.drag = -1.0;
+  EXPECT_NE(w.create_body(bad).status().message().find("body.drag"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace fulcrum

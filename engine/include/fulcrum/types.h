@@ -46,6 +46,7 @@ struct BodyDef {
   double linear_damping = 0.0;          // 1/s, >= 0: dv/dt = -linear_damping * v
   double angular_damping = 0.0;         // 1/s, >= 0
   double gravity_scale = 1.0;           // multiplies world gravity; any finite value
+  double drag = 0.0;                    // quadratic drag c, kg/m, >= 0: F = -c v |v|
   bool fixed_rotation = false;          // a dynamic body that never turns
   bool awake = true;                    // created awake or asleep
   bool enable_sleep = true;             // false keeps this body (and its island) awake
