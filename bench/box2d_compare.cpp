@@ -233,6 +233,40 @@ std::unique_ptr<b2World> convert(const fulcrum::SceneDef& scene, std::vector<b2B
     }
     bodies->push_back(body);
   }
+  // Joints: the same anchors, limits and motors (Box2D 2.4.1 has no revolute spring, and its
+  // distance joint's min/max are its own; both are noted when they would differ).
+  for (const fulcrum::SceneJoint& sj : scene.joints) {
+    b2Body* a = (*bodies)[sj.body_a];
+    b2Body* b = (*bodies)[sj.body_b];
+    if (const auto* r = std::get_if<fulcrum::RevoluteJointDef>(&sj.def)) {
+      b2RevoluteJointDef jd;
+      jd.bodyA = a;
+      jd.bodyB = b;
+      jd.localAnchorA = to_b2(r->local_anchor_a);
+      jd.localAnchorB = to_b2(r->local_anchor_b);
+      jd.referenceAngle = static_cast<float>(r->reference_angle);
+      jd.enableLimit = r->enable_limit;
+      jd.lowerAngle = static_cast<float>(r->lower_angle);
+      jd.upperAngle = static_cast<float>(r->upper_angle);
+      jd.enableMotor = r->enable_motor;
+      jd.motorSpeed = static_cast<float>(r->motor_speed);
+      jd.maxMotorTorque = static_cast<float>(r->max_motor_torque);
+      jd.collideConnected = r->collide_connected;
+      world->CreateJoint(&jd);
+    } else {
+      const auto& d = std::get<fulcrum::DistanceJointDef>(sj.def);
+      b2DistanceJointDef jd;
+      jd.bodyA = a;
+      jd.bodyB = b;
+      jd.localAnchorA = to_b2(d.local_anchor_a);
+      jd.localAnchorB = to_b2(d.local_anchor_b);
+      jd.length = static_cast<float>(d.length);
+      jd.minLength = static_cast<float>(d.min_length);
+      jd.maxLength = static_cast<float>(d.max_length);
+      jd.collideConnected = d.collide_connected;
+      world->CreateJoint(&jd);
+    }
+  }
   return world;
 }
 

@@ -104,3 +104,35 @@ TEST(JointCases, Case12RagdollPile) {
 
 }  // namespace
 }  // namespace fulcrum
+
+namespace fulcrum {
+namespace {
+
+using namespace fulcrum::testing;
+
+// Case 18: 2025 boxes of 0.25 m in a 20 m hollow box turning at 25 deg/s on a motorized
+// revolute joint: for 750 ticks none escapes (every box centre stays inside the drum's inner
+// square, 9.5 m from its centre along both of its axes), and the motor holds its speed
+// within 1 % (its torque limit is far above the load).
+TEST(JointCases, Case18Tumbler) {
+  World w = testing::build("tumbler");
+  std::vector<BodyId> bodies = w.bodies();
+  BodyId drum = bodies[1];
+  double worst = 0.0;
+  for (int i = 0; i < 750; ++i) {
+    w.step();
+    if (i % 10 != 9) continue;
+    Transform xf = w.body_state(drum)->transform;
+    for (size_t k = 2; k < bodies.size(); ++k) {
+      Vec2 local = xf.inv_apply(w.body_state(bodies[k])->center);
+      worst = std::max({worst, std::abs(local.x()), std::abs(local.y())});
+    }
+  }
+  EXPECT_TRUE(all_finite(w));
+  EXPECT_LT(worst, 9.5);
+  double speed = 25.0 * 3.14159265358979323846 / 180.0;
+  EXPECT_NEAR(w.body_state(drum)->angular_velocity, speed, 0.01 * speed);
+}
+
+}  // namespace
+}  // namespace fulcrum
