@@ -40,6 +40,8 @@ const char* joint_type_name(JointType type) {
       return "revolute";
     case JointType::kWeld:
       return "weld";
+    case JointType::kTarget:
+      return "target";
   }
   return "unknown";
 }
@@ -74,6 +76,15 @@ Status validate_weld_joint_def(const WeldJointDef& d) {
   FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.angular_hertz", d.angular_hertz));
   FULCRUM_RETURN_IF_ERROR(
       check_non_negative("joint.angular_damping_ratio", d.angular_damping_ratio));
+  return {};
+}
+
+Status validate_target_joint_def(const TargetJointDef& d) {
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.local_anchor_b", d.local_anchor_b));
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.target", d.target));
+  FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.max_force", d.max_force));
+  FULCRUM_RETURN_IF_ERROR(check_above("joint.hertz", d.hertz, 0.0));
+  FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.damping_ratio", d.damping_ratio));
   return {};
 }
 
@@ -171,7 +182,10 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     r.angular_spring = joint_softness(j.angular_hertz, j.angular_damping_ratio, h);
     const SolverBody& a = s.bodies[r.ia];
     const SolverBody& b = s.bodies[r.ib];
-    if (j.type == JointType::kDistance) {
+    if (j.type == JointType::kTarget) {
+      r.dcx = bb.center.x() - j.target.x();
+      r.dcy = bb.center.y() - j.target.y();
+    } else if (j.type == JointType::kDistance) {
       prepare_distance_joint(j, r, a, b);
     } else {
       // Revolute and weld: the angle row's mass and the joint angle at tick start.
@@ -196,6 +210,9 @@ void WorldImpl::warm_start_joints() {
         break;
       case JointType::kWeld:
         warm_start_weld_joint(j, r, a, b);
+        break;
+      case JointType::kTarget:
+        warm_start_target_joint(j, r, b);
         break;
     }
   }
@@ -223,6 +240,9 @@ void WorldImpl::solve_joints(bool use_bias) {
         break;
       case JointType::kWeld:
         solve_weld_joint(j, r, st, a, b);
+        break;
+      case JointType::kTarget:
+        solve_target_joint(j, r, st, b);
         break;
     }
   }
@@ -372,6 +392,36 @@ Result<JointId> World::create_weld_joint(const WeldJointDef& def) {
   return impl_->joint_id(*ji);
 }
 
+Result<JointId> World::create_target_joint(const TargetJointDef& def) {
+  FULCRUM_RETURN_IF_ERROR(validate_target_joint_def(def));
+  int a = impl_->body_index(def.body_a);
+  if (a != kNullIndex && impl_->bodies[a].type != BodyType::kStatic) {
+    return invalid_argument("joint.body_a: must be a static body (the target's frame)");
+  }
+  Result<int> ji = add_joint(*impl_, def.body_a, def.body_b, true);
+  if (!ji.ok()) return ji.status();
+  Joint& j = impl_->joints[*ji];
+  j.type = JointType::kTarget;
+  j.local_b = def.local_anchor_b;
+  j.target = def.target;
+  j.max_force = def.max_force;
+  j.hertz = def.hertz;
+  j.damping_ratio = def.damping_ratio;
+  return impl_->joint_id(*ji);
+}
+
+Status World::set_joint_target(JointId id, const Vec2& target) {
+  int ji = impl_->joint_index(id);
+  if (ji == kNullIndex) return not_found("joint: unknown or destroyed joint handle");
+  if (impl_->joints[ji].type != JointType::kTarget) {
+    return invalid_argument("joint: not a target joint");
+  }
+  FULCRUM_RETURN_IF_ERROR(check_finite("target", target));
+  impl_->joints[ji].target = target;
+  impl_->wake_island(impl_->joints[ji].body_b);
+  return {};
+}
+
 Status World::set_joint_break_limits(JointId id, double force, double torque) {
   int ji = impl_->joint_index(id);
   if (ji == kNullIndex) return not_found("joint: unknown or destroyed joint handle");
@@ -432,7 +482,12 @@ Result<JointState> World::joint_state(JointId id) const {
     s.motor_torque = inv_h * j.motor_impulse;
     s.angle = relative_angle(a.xf.q, b.xf.q, j.reference_angle);
     s.linear_error = s.length;
-    if (j.type == JointType::kWeld) {
+    if (j.type == JointType::kTarget) {
+      s.anchor_a = j.target;
+      s.linear_error = length(s.anchor_b - j.target);
+      s.length = s.linear_error;
+      s.angle = 0.0;
+    } else if (j.type == JointType::kWeld) {
       s.angular_error = std::abs(s.angle);
     } else if (j.enable_limit) {
       s.angular_error = std::max({0.0, j.lower_angle - s.angle, s.angle - j.upper_angle});

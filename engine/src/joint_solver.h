@@ -86,6 +86,9 @@ void warm_start_weld_joint(const Joint& j, const JointRow& r, SolverBody& a, Sol
 void solve_weld_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
                       SolverBody& b);
 
+void warm_start_target_joint(const Joint& j, const JointRow& r, SolverBody& b);
+void solve_target_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& b);
+
 void prepare_revolute_joint(const Joint& j, JointRow& r, const SolverBody& a, const SolverBody& b);
 void warm_start_revolute_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b);
 void solve_revolute_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,

@@ -96,6 +96,7 @@ uint64_t World::state_hash() const {
     h.add(j.motor_speed);
     h.add(j.break_force);
     h.add(j.break_torque);
+    h.add(j.target);
   }
   for (int i : w.free_joints) h.add(i);
   for (int i : w.free_bodies) h.add(i);

@@ -82,6 +82,9 @@ struct Joint {
   double hertz = 0.0, damping_ratio = 0.0;
   // Weld: the angular part's spring.
   double angular_hertz = 0.0, angular_damping_ratio = 0.0;
+  // Target joints.
+  Vec2 target = Vec2::Zero();
+  double max_force = 0.0;
   double break_force = std::numeric_limits<double>::infinity();
   double break_torque = std::numeric_limits<double>::infinity();
   // Accumulated impulses, per substep (warm starting carries them across ticks).

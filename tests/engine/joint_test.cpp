@@ -386,5 +386,35 @@ TEST(JointTest, WeldBreaksOnTheTickItsLimitIsPassed) {
   EXPECT_FALSE(w.set_joint_break_limits(id, 1.0, 1.0).ok());
 }
 
+// A target joint drags a box to its target, never pulling harder than max_force: with
+// F = 20 N on a 1 kg box the speed changes by at most F / m per second, and after the target
+// moves the box follows it there (within 1 cm once it has settled).
+TEST(JointTest, TargetJointDragsWithinItsForce) {
+  World w(WorldSettings{.gravity = Vec2::Zero()});
+  BodyId ground = static_body(w, Vec2::Zero());
+  BodyId b = box(w, Vec2::Zero(), 0.5, 0.5);
+  TargetJointDef def;
+  def.body_a = ground;
+  def.body_b = b;
+  def.target = Vec2(3.0, 0.0);
+  def.max_force = 20.0;
+  JointId id = *w.create_target_joint(def);
+  double prev_speed = 0.0;
+  for (int i = 0; i < 600; ++i) {
+    w.step();
+    double speed = length(w.body_state(b)->linear_velocity);
+    EXPECT_LE(std::abs(speed - prev_speed), 20.0 / 60.0 + 1e-12) << "tick " << i;
+    EXPECT_LE(length(w.joint_state(id)->reaction_force), 20.0 + 1e-9);
+    prev_speed = speed;
+  }
+  EXPECT_LT(w.joint_state(id)->linear_error, 0.01);
+  ASSERT_TRUE(w.set_joint_target(id, Vec2(3.0, 2.0)).ok());
+  for (int i = 0; i < 600; ++i) w.step();
+  EXPECT_LT(distance(w.body_state(b)->center, Vec2(3.0, 2.0)), 0.01);
+  TargetJointDef moving = def;
+  moving.body_a = b;  // not static
+  EXPECT_NE(w.create_target_joint(moving).status().message().find("body_a"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace fulcrum

@@ -17,7 +17,7 @@ struct JointId {
   friend bool operator==(const JointId&, const JointId&) = default;
 };
 
-enum class JointType : uint8_t { kDistance = 0, kRevolute = 1, kWeld = 2 };
+enum class JointType : uint8_t { kDistance = 0, kRevolute = 1, kWeld = 2, kTarget = 3 };
 const char* joint_type_name(JointType type);
 
 // Keeps the distance between two anchor points in [min_length, max_length]. A rod has
@@ -74,6 +74,19 @@ struct WeldJointDef {
   bool collide_connected = false;
 };
 
+// Pulls a point of body_b toward a world target with a spring, never with more than
+// max_force: for dragging things around. body_a is any static body (the frame the target is
+// given in; it takes no reaction).
+struct TargetJointDef {
+  BodyId body_a;
+  BodyId body_b;
+  Vec2 local_anchor_b = Vec2::Zero();  // the point pulled, in body B's frame, m
+  Vec2 target = Vec2::Zero();          // world point, m (World::set_joint_target moves it)
+  double max_force = 1000.0;           // N, >= 0
+  double hertz = 5.0;                  // spring frequency, Hz, > 0
+  double damping_ratio = 0.7;          // >= 0
+};
+
 // What a joint reports: its reaction on body B and how far it is from satisfied.
 struct JointState {
   JointType type = JointType::kDistance;
@@ -98,6 +111,7 @@ struct JointState {
 
 Status validate_distance_joint_def(const DistanceJointDef& def);
 Status validate_weld_joint_def(const WeldJointDef& def);
+Status validate_target_joint_def(const TargetJointDef& def);
 Status validate_revolute_joint_def(const RevoluteJointDef& def);
 
 }  // namespace fulcrum
