@@ -42,6 +42,8 @@ const char* joint_type_name(JointType type) {
       return "weld";
     case JointType::kTarget:
       return "target";
+    case JointType::kPrismatic:
+      return "prismatic";
   }
   return "unknown";
 }
@@ -85,6 +87,25 @@ Status validate_target_joint_def(const TargetJointDef& d) {
   FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.max_force", d.max_force));
   FULCRUM_RETURN_IF_ERROR(check_above("joint.hertz", d.hertz, 0.0));
   FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.damping_ratio", d.damping_ratio));
+  return {};
+}
+
+Status validate_prismatic_joint_def(const PrismaticJointDef& d) {
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.local_anchor_a", d.local_anchor_a));
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.local_anchor_b", d.local_anchor_b));
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.local_axis_a", d.local_axis_a));
+  if (length(d.local_axis_a) < 1e-9)
+    return invalid_argument("joint.local_axis_a: must not be zero");
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.reference_angle", d.reference_angle));
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.lower_translation", d.lower_translation));
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.upper_translation", d.upper_translation));
+  if (d.lower_translation > d.upper_translation) {
+    return invalid_argument("joint.lower_translation: must be <= upper_translation (got " +
+                            format_number(d.lower_translation) + " > " +
+                            format_number(d.upper_translation) + ")");
+  }
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.motor_speed", d.motor_speed));
+  FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.max_motor_force", d.max_motor_force));
   return {};
 }
 
@@ -185,6 +206,11 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     if (j.type == JointType::kTarget) {
       r.dcx = bb.center.x() - j.target.x();
       r.dcy = bb.center.y() - j.target.y();
+    } else if (j.type == JointType::kPrismatic) {
+      Vec2 axis = ba.xf.q.rotate(j.local_axis);
+      r.axis_x = axis.x();
+      r.axis_y = axis.y();
+      r.angle = relative_angle(ba.xf.q, bb.xf.q, j.reference_angle);
     } else if (j.type == JointType::kDistance) {
       prepare_distance_joint(j, r, a, b);
     } else {
@@ -213,6 +239,9 @@ void WorldImpl::warm_start_joints() {
         break;
       case JointType::kTarget:
         warm_start_target_joint(j, r, b);
+        break;
+      case JointType::kPrismatic:
+        warm_start_prismatic_joint(j, r, a, b);
         break;
     }
   }
@@ -244,6 +273,9 @@ void WorldImpl::solve_joints(bool use_bias) {
       case JointType::kTarget:
         solve_target_joint(j, r, st, b);
         break;
+      case JointType::kPrismatic:
+        solve_prismatic_joint(j, r, st, a, b);
+        break;
     }
   }
 }
@@ -256,6 +288,12 @@ void joint_reaction(const Joint& j, double inv_h, const Vec2& axis, Vec2* force,
     *force =
         inv_h * (j.axial_impulse + j.spring_impulse + j.lower_impulse - j.upper_impulse) * axis;
     *torque = 0.0;
+  } else if (j.type == JointType::kPrismatic) {
+    // axis: the slide axis; linear_impulse holds the line row (along its perpendicular) and
+    // the angle row.
+    double axial = j.motor_impulse + j.lower_impulse - j.upper_impulse;
+    *force = inv_h * (axial * axis + j.linear_impulse.x() * left_perp(axis));
+    *torque = inv_h * j.linear_impulse.y();
   } else if (j.type == JointType::kRevolute) {
     *force = inv_h * j.linear_impulse;
     *torque = inv_h * (j.spring_impulse + j.motor_impulse + j.lower_impulse - j.upper_impulse);
@@ -274,8 +312,9 @@ void WorldImpl::break_joints() {
     if (!j.alive || (std::isinf(j.break_force) && std::isinf(j.break_torque))) continue;
     Vec2 force;
     double torque;
+    // Any unit axis gives the right size of force (a distance joint's lies along its axis, a
+    // prismatic joint's rows are orthogonal).
     joint_reaction(j, inv_h, Vec2(1.0, 0.0), &force, &torque);
-    // A distance joint's force lies along its axis: its size does not depend on the axis.
     if (length(force) > j.break_force || std::abs(torque) > j.break_torque) {
       events.joints_broken.push_back(joint_id(ji));
       wake_island(j.body_a);
@@ -392,6 +431,25 @@ Result<JointId> World::create_weld_joint(const WeldJointDef& def) {
   return impl_->joint_id(*ji);
 }
 
+Result<JointId> World::create_prismatic_joint(const PrismaticJointDef& def) {
+  FULCRUM_RETURN_IF_ERROR(validate_prismatic_joint_def(def));
+  Result<int> ji = add_joint(*impl_, def.body_a, def.body_b, def.collide_connected);
+  if (!ji.ok()) return ji.status();
+  Joint& j = impl_->joints[*ji];
+  j.type = JointType::kPrismatic;
+  j.local_a = def.local_anchor_a;
+  j.local_b = def.local_anchor_b;
+  j.local_axis = normalize_or_zero(def.local_axis_a);
+  j.reference_angle = def.reference_angle;
+  j.enable_limit = def.enable_limit;
+  j.lower_angle = def.lower_translation;  // translations, in the limit fields
+  j.upper_angle = def.upper_translation;
+  j.enable_motor = def.enable_motor;
+  j.motor_speed = def.motor_speed;
+  j.max_motor_force = def.max_motor_force;
+  return impl_->joint_id(*ji);
+}
+
 Result<JointId> World::create_target_joint(const TargetJointDef& def) {
   FULCRUM_RETURN_IF_ERROR(validate_target_joint_def(def));
   int a = impl_->body_index(def.body_a);
@@ -475,14 +533,24 @@ Result<JointState> World::joint_state(JointId id) const {
   s.length = length(d);
   // Impulses are per substep: force = impulse / substep.
   const double inv_h = w.settings.substeps / w.settings.dt;
-  joint_reaction(j, inv_h, normalize_or_zero(d), &s.reaction_force, &s.reaction_torque);
+  Vec2 axis = j.type == JointType::kPrismatic ? a.xf.q.rotate(j.local_axis) : normalize_or_zero(d);
+  joint_reaction(j, inv_h, axis, &s.reaction_force, &s.reaction_torque);
   if (j.type == JointType::kDistance) {
     s.linear_error = std::max({0.0, j.min_length - s.length, s.length - j.max_length});
   } else {
     s.motor_torque = inv_h * j.motor_impulse;
     s.angle = relative_angle(a.xf.q, b.xf.q, j.reference_angle);
     s.linear_error = s.length;
-    if (j.type == JointType::kTarget) {
+    if (j.type == JointType::kPrismatic) {
+      // length: the translation along the axis; linear error: off the line.
+      s.length = dot(axis, d);
+      s.linear_error = std::abs(cross(axis, d));
+      s.angular_error = std::abs(s.angle);
+      if (j.enable_limit) {
+        s.linear_error =
+            std::max({s.linear_error, j.lower_angle - s.length, s.length - j.upper_angle});
+      }
+    } else if (j.type == JointType::kTarget) {
       s.anchor_a = j.target;
       s.linear_error = length(s.anchor_b - j.target);
       s.length = s.linear_error;

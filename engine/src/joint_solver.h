@@ -14,12 +14,13 @@ struct JointRow {
   int ia = 0, ib = 0;           // solver body slots (0: the shared static body)
   double rax = 0.0, ray = 0.0;  // anchors relative to the centres of mass, tick start, world
   double rbx = 0.0, rby = 0.0;
-  double dcx = 0.0, dcy = 0.0;  // centre of B minus centre of A, tick start
-  double angle = 0.0;           // revolute: joint angle at tick start
-  double axial_mass = 0.0;      // distance: along the axis; revolute: 1 / (iA + iB)
-  Softness soft;                // position feedback
-  Softness spring;              // the joint's own spring (weld: linear part)
-  Softness angular_spring;      // weld: angular part
+  double dcx = 0.0, dcy = 0.0;        // centre of B minus centre of A, tick start
+  double angle = 0.0;                 // revolute, weld, prismatic: joint angle at tick start
+  double axis_x = 0.0, axis_y = 0.0;  // prismatic: slide axis, world, tick start
+  double axial_mass = 0.0;            // distance: along the axis; revolute: 1 / (iA + iB)
+  Softness soft;                      // position feedback
+  Softness spring;                    // the joint's own spring (weld: linear part)
+  Softness angular_spring;            // weld: angular part
 };
 
 // Context shared by every joint row of one substep.
@@ -88,6 +89,10 @@ void solve_weld_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBo
 
 void warm_start_target_joint(const Joint& j, const JointRow& r, SolverBody& b);
 void solve_target_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& b);
+
+void warm_start_prismatic_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b);
+void solve_prismatic_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
+                           SolverBody& b);
 
 void prepare_revolute_joint(const Joint& j, JointRow& r, const SolverBody& a, const SolverBody& b);
 void warm_start_revolute_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b);

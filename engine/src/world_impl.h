@@ -82,6 +82,9 @@ struct Joint {
   double hertz = 0.0, damping_ratio = 0.0;
   // Weld: the angular part's spring.
   double angular_hertz = 0.0, angular_damping_ratio = 0.0;
+  // Prismatic joints (limits, motor speed and motor impulse share the fields above).
+  Vec2 local_axis = Vec2(1.0, 0.0);
+  double max_motor_force = 0.0;
   // Target joints.
   Vec2 target = Vec2::Zero();
   double max_force = 0.0;

@@ -17,7 +17,13 @@ struct JointId {
   friend bool operator==(const JointId&, const JointId&) = default;
 };
 
-enum class JointType : uint8_t { kDistance = 0, kRevolute = 1, kWeld = 2, kTarget = 3 };
+enum class JointType : uint8_t {
+  kDistance = 0,
+  kRevolute = 1,
+  kWeld = 2,
+  kTarget = 3,
+  kPrismatic = 4
+};
 const char* joint_type_name(JointType type);
 
 // Keeps the distance between two anchor points in [min_length, max_length]. A rod has
@@ -55,6 +61,25 @@ struct RevoluteJointDef {
   double hertz = 0.0;          // spring frequency, Hz, >= 0
   double damping_ratio = 0.0;  // >= 0
   double target_angle = 0.0;   // spring rest angle, rad (joint angle)
+  bool collide_connected = false;
+};
+
+// Lets body B slide along an axis fixed in body A, without turning relative to A (the talk's
+// line constraint plus an angle row), optionally within translation limits and driven by a
+// velocity motor with a force limit.
+struct PrismaticJointDef {
+  BodyId body_a;
+  BodyId body_b;
+  Vec2 local_anchor_a = Vec2::Zero();  // in body A's frame, m
+  Vec2 local_anchor_b = Vec2::Zero();  // in body B's frame, m
+  Vec2 local_axis_a = Vec2(1.0, 0.0);  // slide direction in body A's frame (normalized), != 0
+  double reference_angle = 0.0;        // angle_b - angle_a to hold, rad
+  bool enable_limit = false;
+  double lower_translation = 0.0;  // m, <= upper_translation
+  double upper_translation = 0.0;  // m
+  bool enable_motor = false;
+  double motor_speed = 0.0;      // m/s along the axis
+  double max_motor_force = 0.0;  // N, >= 0
   bool collide_connected = false;
 };
 
@@ -96,7 +121,8 @@ struct JointState {
   Vec2 anchor_b = Vec2::Zero();
   Vec2 reaction_force = Vec2::Zero();  // on body B over the last tick, N
   double reaction_torque = 0.0;        // on body B over the last tick, N m
-  double motor_torque = 0.0;           // revolute: last tick's motor torque, N m
+  double motor_torque = 0.0;           // revolute: last tick's motor torque, N m (prismatic:
+                                       // its motor force, N)
   double length = 0.0;                 // distance between the anchors, m
   double angle = 0.0;                  // revolute: joint angle, rad
   double linear_error = 0.0;           // m: anchor separation (revolute) or how far the
@@ -112,6 +138,7 @@ struct JointState {
 Status validate_distance_joint_def(const DistanceJointDef& def);
 Status validate_weld_joint_def(const WeldJointDef& def);
 Status validate_target_joint_def(const TargetJointDef& def);
+Status validate_prismatic_joint_def(const PrismaticJointDef& def);
 Status validate_revolute_joint_def(const RevoluteJointDef& def);
 
 }  // namespace fulcrum

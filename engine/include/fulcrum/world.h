@@ -138,6 +138,7 @@ class World {
   Result<JointId> create_revolute_joint(const RevoluteJointDef& def);
   Result<JointId> create_weld_joint(const WeldJointDef& def);
   Result<JointId> create_target_joint(const TargetJointDef& def);
+  Result<JointId> create_prismatic_joint(const PrismaticJointDef& def);
   Status set_joint_target(JointId id, const Vec2& target);
   // Force (N) and torque (N m) above which the joint breaks; infinity: never. Both >= 0.
   Status set_joint_break_limits(JointId id, double force, double torque);
