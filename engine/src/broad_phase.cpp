@@ -71,7 +71,8 @@ void WorldImpl::update_pairs() {
   if (move_buffer.empty()) return;
   // Collect candidate pairs (lower shape index first). A pair of two moved shapes is found
   // from both sides; sorting and removing duplicates handles that.
-  std::vector<std::pair<int, int>> pairs;
+  std::vector<std::pair<int, int>>& pairs = scratch_pairs;
+  pairs.clear();
   for (int si : move_buffer) {
     const AABB& box = tree.fat_aabb(shapes[si].proxy);
     tree.query(box, [&](int proxy) {

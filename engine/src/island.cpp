@@ -33,7 +33,8 @@ void WorldImpl::update_sleep(const std::vector<int>& awake) {
   std::vector<int>& slot = solver_scratch.body_slot;  // body -> 1 + position in `awake`
 
   // Rest timers.
-  std::vector<double> island_min(n);
+  std::vector<double>& island_min = scratch_rest;
+  island_min.assign(n, 0.0);
   for (int k = 0; k < n; ++k) {
     Body& b = bodies[awake[k]];
     bool resting = settings.enable_sleep && b.enable_sleep && length_squared(b.v) <= lin_tol2 &&
@@ -44,7 +45,8 @@ void WorldImpl::update_sleep(const std::vector<int>& awake) {
 
   // Union over touching solid contacts between awake dynamic bodies. A body touching a moving
   // kinematic body may not sleep.
-  std::vector<int> parent(n);
+  std::vector<int>& parent = scratch_parent;
+  parent.resize(n);
   for (int k = 0; k < n; ++k) parent[k] = k;
   for (int k = 0; k < n; ++k) {
     int bi = awake[k];
@@ -83,7 +85,8 @@ void WorldImpl::update_sleep(const std::vector<int>& awake) {
   }
 
   // An island sleeps when its least rested body has rested long enough.
-  std::vector<double> root_min(n, 1e300);
+  std::vector<double>& root_min = scratch_root_rest;
+  root_min.assign(n, 1e300);
   for (int k = 0; k < n; ++k) {
     int r = find_root(parent, k);
     root_min[r] = std::min(root_min[r], island_min[k]);

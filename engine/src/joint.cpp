@@ -375,16 +375,26 @@ Result<int> add_joint(WorldImpl& w, BodyId body_a, BodyId body_b, bool collide_c
   return ji;
 }
 
+// The common start of create_*_joint: the definition's own check, then a joint between its
+// two bodies with its anchors.
+template <typename Def>
+Result<int> start_joint(WorldImpl& w, const Def& def, const Status& valid, JointType type) {
+  if (!valid.ok()) return valid;
+  Result<int> ji = add_joint(w, def.body_a, def.body_b, def.collide_connected);
+  if (!ji.ok()) return ji;
+  Joint& j = w.joints[*ji];
+  j.type = type;
+  j.local_a = def.local_anchor_a;
+  j.local_b = def.local_anchor_b;
+  return ji;
+}
+
 }  // namespace
 
 Result<JointId> World::create_distance_joint(const DistanceJointDef& def) {
-  FULCRUM_RETURN_IF_ERROR(validate_distance_joint_def(def));
-  Result<int> ji = add_joint(*impl_, def.body_a, def.body_b, def.collide_connected);
+  Result<int> ji = start_joint(*impl_, def, validate_distance_joint_def(def), JointType::kDistance);
   if (!ji.ok()) return ji.status();
   Joint& j = impl_->joints[*ji];
-  j.type = JointType::kDistance;
-  j.local_a = def.local_anchor_a;
-  j.local_b = def.local_anchor_b;
   j.length = def.length;
   j.min_length = def.min_length;
   j.max_length = def.max_length;
@@ -394,13 +404,9 @@ Result<JointId> World::create_distance_joint(const DistanceJointDef& def) {
 }
 
 Result<JointId> World::create_revolute_joint(const RevoluteJointDef& def) {
-  FULCRUM_RETURN_IF_ERROR(validate_revolute_joint_def(def));
-  Result<int> ji = add_joint(*impl_, def.body_a, def.body_b, def.collide_connected);
+  Result<int> ji = start_joint(*impl_, def, validate_revolute_joint_def(def), JointType::kRevolute);
   if (!ji.ok()) return ji.status();
   Joint& j = impl_->joints[*ji];
-  j.type = JointType::kRevolute;
-  j.local_a = def.local_anchor_a;
-  j.local_b = def.local_anchor_b;
   j.reference_angle = def.reference_angle;
   j.enable_limit = def.enable_limit;
   j.lower_angle = def.lower_angle;
@@ -416,13 +422,9 @@ Result<JointId> World::create_revolute_joint(const RevoluteJointDef& def) {
 }
 
 Result<JointId> World::create_weld_joint(const WeldJointDef& def) {
-  FULCRUM_RETURN_IF_ERROR(validate_weld_joint_def(def));
-  Result<int> ji = add_joint(*impl_, def.body_a, def.body_b, def.collide_connected);
+  Result<int> ji = start_joint(*impl_, def, validate_weld_joint_def(def), JointType::kWeld);
   if (!ji.ok()) return ji.status();
   Joint& j = impl_->joints[*ji];
-  j.type = JointType::kWeld;
-  j.local_a = def.local_anchor_a;
-  j.local_b = def.local_anchor_b;
   j.reference_angle = def.reference_angle;
   j.hertz = def.linear_hertz;
   j.damping_ratio = def.linear_damping_ratio;
@@ -432,13 +434,10 @@ Result<JointId> World::create_weld_joint(const WeldJointDef& def) {
 }
 
 Result<JointId> World::create_prismatic_joint(const PrismaticJointDef& def) {
-  FULCRUM_RETURN_IF_ERROR(validate_prismatic_joint_def(def));
-  Result<int> ji = add_joint(*impl_, def.body_a, def.body_b, def.collide_connected);
+  Result<int> ji =
+      start_joint(*impl_, def, validate_prismatic_joint_def(def), JointType::kPrismatic);
   if (!ji.ok()) return ji.status();
   Joint& j = impl_->joints[*ji];
-  j.type = JointType::kPrismatic;
-  j.local_a = def.local_anchor_a;
-  j.local_b = def.local_anchor_b;
   j.local_axis = normalize_or_zero(def.local_axis_a);
   j.reference_angle = def.reference_angle;
   j.enable_limit = def.enable_limit;

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "contact_solver.h"
@@ -194,6 +195,9 @@ class WorldImpl {
   std::vector<int> scratch_contacts;
   std::vector<int> scratch_awake;
   SolverScratch solver_scratch;
+  std::vector<std::pair<int, int>> scratch_pairs;  // broad phase
+  std::vector<int> scratch_parent;                 // islands
+  std::vector<double> scratch_rest, scratch_root_rest;
 };
 
 inline int edge_contact(int edge_key) {
