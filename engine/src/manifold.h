@@ -7,6 +7,7 @@
 
 #include "fulcrum/geometry.h"
 #include "fulcrum/math.h"
+#include "fulcrum/state.h"
 
 namespace fulcrum {
 
@@ -14,26 +15,6 @@ namespace fulcrum {
 inline constexpr uint32_t make_feature_id(int a, int b) {
   return (static_cast<uint32_t>(a & 0xff) << 8) | static_cast<uint32_t>(b & 0xff);
 }
-
-struct ManifoldPoint {
-  Vec2 point = Vec2::Zero();  // world position, midway between the two surfaces, m
-  double separation =
-      0.0;          // signed distance between the surfaces along the normal, m (< 0: overlap)
-  uint32_t id = 0;  // feature id, stable while the same features touch
-
-  // Filled and used by the contact solver, not by the manifold functions.
-  Vec2 anchor_a = Vec2::Zero();  // point relative to body A's centre of mass, world frame
-  Vec2 anchor_b = Vec2::Zero();  // point relative to body B's centre of mass, world frame
-  double normal_impulse = 0.0;   // accumulated, N s
-  double tangent_impulse = 0.0;  // accumulated, N s
-  bool persisted = false;        // matched a point of the previous step's manifold
-};
-
-struct Manifold {
-  Vec2 normal = Vec2::Zero();  // world unit normal, pointing from shape A to shape B
-  ManifoldPoint points[2];
-  int count = 0;  // 0: not touching (no point closer than the speculative distance)
-};
 
 // Each function takes shape A with its body transform and shape B with its; it reports points
 // whose separation is below `speculative` (m) and leaves count = 0 otherwise.

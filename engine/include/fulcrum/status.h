@@ -49,6 +49,9 @@ inline Status invalid_argument(std::string message) {
 inline Status not_found(std::string message) {
   return Status(StatusCode::kNotFound, std::move(message));
 }
+inline Status data_loss(std::string message) {
+  return Status(StatusCode::kDataLoss, std::move(message));
+}
 
 // A value or the Status that explains why there is none.
 template <typename T>

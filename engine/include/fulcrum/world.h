@@ -88,6 +88,7 @@ struct RayHit {
 };
 
 class WorldImpl;
+struct WorldSnapshot;  // fulcrum/state.h
 
 class World {
  public:
@@ -157,6 +158,14 @@ class World {
   // 64-bit hash of every bit of state that evolves, over bit patterns in id order.
   uint64_t state_hash() const;
   WorldMetrics metrics() const;
+
+  // --- Snapshots (fulcrum/state.h) -----------------------------------------------------------
+  // The complete world at this tick boundary. A world restored from it continues bit for bit.
+  WorldSnapshot snapshot() const;
+  // Replaces this world with the snapshot after checking all of it (ranges, links between
+  // records, and that the restored state hashes to snapshot.state_hash). On error the world is
+  // unchanged and the message names the record and field at fault.
+  Status restore(const WorldSnapshot& snapshot);
 
   // --- Queries (results in a deterministic order) --------------------------------------------
   // The nearest hit along origin -> origin + translation (ties broken by shape id).

@@ -1,0 +1,163 @@
+// The world's state records: every body, shape, contact and joint exactly as the engine keeps
+// them between ticks, slots of destroyed objects included. World::snapshot() copies them out
+// and World::restore() checks and copies them back, so a restored world continues bit for bit;
+// nothing here is a raw memory image (proto/convert writes them field by field). Applications
+// use the handles and definitions of world.h; these records are for snapshots, replays and the
+// engine itself.
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include "fulcrum/geometry.h"
+#include "fulcrum/joints.h"
+#include "fulcrum/math.h"
+#include "fulcrum/types.h"
+
+namespace fulcrum {
+
+struct ManifoldPoint {
+  Vec2 point = Vec2::Zero();  // world position, midway between the two surfaces, m
+  double separation =
+      0.0;          // signed distance between the surfaces along the normal, m (< 0: overlap)
+  uint32_t id = 0;  // feature id, stable while the same features touch
+
+  // Filled and used by the contact solver, not by the manifold functions.
+  Vec2 anchor_a = Vec2::Zero();  // point relative to body A's centre of mass, world frame
+  Vec2 anchor_b = Vec2::Zero();  // point relative to body B's centre of mass, world frame
+  double normal_impulse = 0.0;   // accumulated, N s
+  double tangent_impulse = 0.0;  // accumulated, N s
+  bool persisted = false;        // matched a point of the previous step's manifold
+};
+
+struct Manifold {
+  Vec2 normal = Vec2::Zero();  // world unit normal, pointing from shape A to shape B
+  ManifoldPoint points[2];
+  int count = 0;  // 0: not touching (no point closer than the speculative distance)
+};
+
+inline constexpr int kNullIndex = -1;
+
+struct Body {
+  BodyType type = BodyType::kStatic;
+  uint32_t generation = 0;
+  bool alive = false;
+
+  Transform xf;                      // body origin
+  Vec2 local_center = Vec2::Zero();  // centre of mass in the body frame
+  Vec2 center = Vec2::Zero();        // centre of mass, world
+  Vec2 v = Vec2::Zero();             // velocity of the centre of mass
+  double w = 0.0;
+  Vec2 force = Vec2::Zero();  // applied for the next tick
+  double torque = 0.0;
+
+  double mass = 0.0, inv_mass = 0.0;
+  double inertia = 0.0, inv_inertia = 0.0;  // about the centre of mass
+  double linear_damping = 0.0, angular_damping = 0.0, gravity_scale = 1.0;
+  double drag = 0.0;  // quadratic drag coefficient, kg/m
+  bool fixed_rotation = false;
+  bool awake = false;
+  bool enable_sleep = true;
+  double sleep_time = 0.0;
+  uint64_t user_data = 0;
+
+  std::vector<int> shapes;        // shape indices, in creation order
+  std::vector<int> joints;        // joint indices, in creation order
+  int contact_list = kNullIndex;  // head of this body's contact edge list (edge key)
+  int contact_count = 0;          // length of that list
+  int awake_slot = kNullIndex;    // position in WorldImpl::awake_bodies, or kNullIndex
+
+  bool is_dynamic() const { return type == BodyType::kDynamic || type == BodyType::kParticle; }
+  bool rotates() const { return type != BodyType::kParticle && !fixed_rotation; }
+};
+
+struct Shape {
+  int body = kNullIndex;
+  uint32_t generation = 0;
+  bool alive = false;
+  Geometry geometry;
+  double density = 0.0, friction = 0.0, restitution = 0.0;
+  Filter filter;
+  bool is_sensor = false;
+  uint64_t user_data = 0;
+  int proxy = kNullIndex;  // broad-phase leaf
+  bool in_move_buffer = false;
+};
+
+struct Joint {
+  JointType type = JointType::kDistance;
+  uint32_t generation = 0;
+  bool alive = false;
+  int body_a = kNullIndex, body_b = kNullIndex;
+  bool collide_connected = false;
+  Vec2 local_a = Vec2::Zero(), local_b = Vec2::Zero();  // anchors in the body frames
+  // Distance joints.
+  double length = 1.0, min_length = 1.0, max_length = 1.0;
+  // Revolute joints.
+  double reference_angle = 0.0;
+  bool enable_limit = false, enable_motor = false, enable_spring = false;
+  double lower_angle = 0.0, upper_angle = 0.0;
+  double motor_speed = 0.0, max_motor_torque = 0.0;
+  double target_angle = 0.0;
+  // Springs (distance, revolute); weld: the linear part's spring.
+  double hertz = 0.0, damping_ratio = 0.0;
+  // Weld: the angular part's spring.
+  double angular_hertz = 0.0, angular_damping_ratio = 0.0;
+  // Prismatic joints (limits, motor speed and motor impulse share the fields above).
+  Vec2 local_axis = Vec2(1.0, 0.0);
+  double max_motor_force = 0.0;
+  // Target joints.
+  Vec2 target = Vec2::Zero();
+  double max_force = 0.0;
+  double break_force = std::numeric_limits<double>::infinity();
+  double break_torque = std::numeric_limits<double>::infinity();
+  // Accumulated impulses, per substep (warm starting carries them across ticks).
+  Vec2 linear_impulse = Vec2::Zero();  // revolute point rows
+  double axial_impulse = 0.0;          // distance: rigid row or spring
+  double lower_impulse = 0.0, upper_impulse = 0.0;
+  double motor_impulse = 0.0, spring_impulse = 0.0;
+};
+
+// A contact sits in two intrusive doubly linked lists, one per body. Edge key = 2 * contact
+// index + side (0: body A, 1: body B).
+struct ContactEdge {
+  int prev = kNullIndex;
+  int next = kNullIndex;
+};
+
+struct Contact {
+  bool alive = false;
+  bool touching = false;
+  bool sensor = false;
+  int shape_a = kNullIndex, shape_b = kNullIndex;  // geometry_type(a) <= geometry_type(b)
+  int body_a = kNullIndex, body_b = kNullIndex;
+  double friction = 0.0, restitution = 0.0;  // mixed once at creation
+  Manifold manifold;
+  ContactEdge edges[2];
+  uint32_t stamp = 0;  // the step that last collected it (dedupe while gathering)
+};
+
+// A whole world: definitions and settings, dynamic state and the solver's warm-start cache
+// (the manifolds' and joints' accumulated impulses). Slot vectors are indexed by id; dead slots
+// keep their generation so that handles stay unique after a restore.
+struct WorldSnapshot {
+  WorldSettings settings;
+  int64_t tick = 0;
+  uint32_t step_stamp = 0;
+  std::vector<Body> bodies;
+  std::vector<int> free_bodies;  // reused last first
+  std::vector<Shape> shapes;     // `proxy` is not kept: the tree is rebuilt from shape_boxes
+  std::vector<int> free_shapes;
+  std::vector<AABB> shape_boxes;  // broad-phase fat box of each live shape (dead: empty box)
+  std::vector<Contact> contacts;
+  std::vector<int> free_contacts;
+  std::vector<Joint> joints;
+  std::vector<int> free_joints;
+  std::vector<JointId> pending_joint_events;  // destroyed with a body, reported next step
+  std::vector<int> awake_bodies;              // in the world's own order
+  std::vector<int> move_buffer;               // shapes whose boxes moved since the last step
+  uint64_t state_hash = 0;                    // World::state_hash() when it was taken
+};
+
+}  // namespace fulcrum
