@@ -1013,6 +1013,32 @@ std::string scene_to_json(const SceneDef& scene, std::string_view name) {
   return keep_negative_zeros(out);
 }
 
+// --- Pieces shared with the snapshot and edit conversions ---------------------------------------
+
+void world_settings_to_proto(const WorldSettings& s, v1::WorldSettings* out) {
+  settings_to_proto(s, out);
+}
+Status world_settings_from_proto(const v1::WorldSettings& p, const std::string& path,
+                                 WorldSettings* s) {
+  return settings_from_proto(p, path, s);
+}
+Status scene_body_from_proto(const v1::Body& p, const std::string& path, SceneBody* body) {
+  return body_from_proto(p, path, body);
+}
+Status scene_shape_from_proto(const v1::Shape& p, const std::string& path, ShapeDef* def) {
+  return shape_from_proto(p, path, def);
+}
+Filter scene_filter_from_proto(const v1::Filter& p) {
+  return filter_from_proto(p);
+}
+void scene_filter_to_proto(const Filter& f, v1::Filter* out) {
+  filter_to_proto(f, out);
+}
+Status scene_joint_from_proto(const v1::Joint& p, const std::string& path, int body_count,
+                              SceneJoint* out) {
+  return joint_from_proto(p, path, body_count, out);
+}
+
 #undef CONVERT_RETURN_IF_ERROR
 
 }  // namespace fulcrum

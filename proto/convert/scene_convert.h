@@ -31,4 +31,18 @@ Result<SceneDef> load_scene_json(const std::string& path);
 // to parse back to the same bits.
 std::string scene_to_json(const SceneDef& scene, std::string_view name = {});
 
+// Pieces of the scene conversion that the snapshot and edit conversions share. Paths prefix
+// error messages (e.g. "edits[3].create_body").
+void world_settings_to_proto(const WorldSettings& s, v1::WorldSettings* out);
+// Present fields replace those in *s; each is range-checked.
+Status world_settings_from_proto(const v1::WorldSettings& p, const std::string& path,
+                                 WorldSettings* s);
+Status scene_body_from_proto(const v1::Body& p, const std::string& path, SceneBody* body);
+Status scene_shape_from_proto(const v1::Shape& p, const std::string& path, ShapeDef* def);
+Filter scene_filter_from_proto(const v1::Filter& p);
+void scene_filter_to_proto(const Filter& f, v1::Filter* out);
+// body_a and body_b index a list of body_count bodies.
+Status scene_joint_from_proto(const v1::Joint& p, const std::string& path, int body_count,
+                              SceneJoint* out);
+
 }  // namespace fulcrum
