@@ -68,5 +68,6 @@ bool load_scene_from_args(const Invocation& inv, LoadedScene* loaded, int* exit_
 int run_sim(const Invocation& inv);
 int run_scenes(const Invocation& inv);
 int run_export(const Invocation& inv);
+int run_replay(const Invocation& inv);
 
 }  // namespace fulcrum::cli

@@ -17,6 +17,14 @@ constexpr FlagSpec kSimFlags[] = {
     {"json", "", "print one JSON object instead of text"},
 };
 constexpr FlagSpec kExportFlags[] = {kSceneFlag, kBuiltinFlag};
+constexpr FlagSpec kReplayFlags[] = {
+    kSceneFlag,
+    kBuiltinFlag,
+    {"ticks", "N", "record: number of ticks to record"},
+    {"out", "FILE", "record: the replay file to write"},
+    {"edits", "FILE", "record: edit script (Protobuf JSON of fulcrum.v1.EditScript)"},
+    {"keyframes", "K", "record: a full snapshot every K ticks (default 60, 0: none)"},
+};
 
 constexpr Command kCommands[] = {
     {"sim", "build a scene, step it N ticks, print the state hash and accuracy figures",
@@ -30,6 +38,16 @@ constexpr Command kCommands[] = {
      "(--scene FILE | --builtin NAME)",
      "The output is a scene file: `fulcrum sim --scene` on it gives the same state hash.",
      kExportFlags, 0, run_export},
+    {"replay", "record, verify or describe a replay file",
+     "record (--scene FILE | --builtin NAME) --ticks N --out FILE [--edits FILE] "
+     "[--keyframes K]\n"
+     "       fulcrum replay verify FILE\n"
+     "       fulcrum replay info FILE",
+     "A replay holds the initial snapshot, every edit batch with its tick, every tick's state\n"
+     "hash and a keyframe snapshot every K ticks. `verify` re-simulates it and exits 0 when\n"
+     "every tick matches; otherwise it exits 1 naming the first divergent tick and, from the\n"
+     "keyframe of that tick or the next, the first body, joint or contact field that differs.",
+     kReplayFlags, 2, run_replay},
 };
 
 void print_main_help(std::ostream& out) {

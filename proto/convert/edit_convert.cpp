@@ -1,0 +1,221 @@
+// Edit batches: each edit maps onto one World call. Atomicity comes from a snapshot taken
+// before the first edit and restored if any edit is refused, so a half-applied batch is never
+// visible.
+#include "edit_convert.h"
+
+#include <google/protobuf/util/json_util.h>
+
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "fulcrum/state.h"
+#include "scene_convert.h"
+
+namespace fulcrum {
+
+namespace {
+
+Vec2 get(const v1::Vec2& v) {
+  return Vec2(v.x(), v.y());
+}
+BodyId body(const v1::Handle& h) {
+  return BodyId{h.index(), h.generation()};
+}
+ShapeId shape(const v1::Handle& h) {
+  return ShapeId{h.index(), h.generation()};
+}
+JointId joint(const v1::Handle& h) {
+  return JointId{h.index(), h.generation()};
+}
+
+Status apply_one(World* w, const v1::Edit& e, const std::string& path, EditOutcome* out) {
+  switch (e.kind_case()) {
+    case v1::Edit::kCreateBody: {
+      SceneBody sb;
+      FULCRUM_RETURN_IF_ERROR(scene_body_from_proto(e.create_body(), path, &sb));
+      Result<BodyId> id = w->create_body(sb.def);
+      if (!id.ok()) return id.status();
+      out->bodies.push_back(*id);
+      for (const ShapeDef& s : sb.shapes) {
+        Result<ShapeId> sid = w->create_shape(*id, s);
+        if (!sid.ok()) return sid.status();
+        out->shapes.push_back(*sid);
+      }
+      for (const ChainDef& c : sb.chains) {
+        auto ids = w->create_chain(*id, c);
+        if (!ids.ok()) return ids.status();
+        out->shapes.insert(out->shapes.end(), ids->begin(), ids->end());
+      }
+      return {};
+    }
+    case v1::Edit::kDestroyBody:
+      return w->destroy_body(body(e.destroy_body()));
+    case v1::Edit::kCreateShape: {
+      ShapeDef def;
+      FULCRUM_RETURN_IF_ERROR(scene_shape_from_proto(e.create_shape().shape(), path, &def));
+      Result<ShapeId> id = w->create_shape(body(e.create_shape().body()), def);
+      if (!id.ok()) return id.status();
+      out->shapes.push_back(*id);
+      return {};
+    }
+    case v1::Edit::kDestroyShape:
+      return w->destroy_shape(shape(e.destroy_shape()));
+    case v1::Edit::kCreateJoint: {
+      const v1::CreateJoint& c = e.create_joint();
+      v1::Joint j;  // the scene form, between "body 0" and "body 1"
+      j.set_body_a(0);
+      j.set_body_b(1);
+      *j.mutable_local_anchor_a() = c.local_anchor_a();
+      *j.mutable_local_anchor_b() = c.local_anchor_b();
+      j.set_collide_connected(c.collide_connected());
+      if (c.has_distance()) *j.mutable_distance() = c.distance();
+      if (c.has_revolute()) *j.mutable_revolute() = c.revolute();
+      SceneJoint sj;
+      FULCRUM_RETURN_IF_ERROR(scene_joint_from_proto(j, path, 2, &sj));
+      Result<JointId> id = std::visit(
+          [&](auto def) -> Result<JointId> {
+            def.body_a = body(c.body_a());
+            def.body_b = body(c.body_b());
+            if constexpr (std::is_same_v<decltype(def), DistanceJointDef>) {
+              return w->create_distance_joint(def);
+            } else {
+              return w->create_revolute_joint(def);
+            }
+          },
+          sj.def);
+      if (!id.ok()) return id.status();
+      out->joints.push_back(*id);
+      return {};
+    }
+    case v1::Edit::kDestroyJoint:
+      return w->destroy_joint(joint(e.destroy_joint()));
+    case v1::Edit::kSetTransform: {
+      const v1::SetTransform& t = e.set_transform();
+      return w->set_transform(body(t.body()), get(t.position()), t.angle());
+    }
+    case v1::Edit::kSetVelocity: {
+      const v1::SetVelocity& v = e.set_velocity();
+      // Both checked before either is set, so one edit never half-applies.
+      if (!is_finite(get(v.linear())) || !std::isfinite(v.angular())) {
+        return invalid_argument("linear, angular: must be finite");
+      }
+      FULCRUM_RETURN_IF_ERROR(w->set_linear_velocity(body(v.body()), get(v.linear())));
+      return w->set_angular_velocity(body(v.body()), v.angular());
+    }
+    case v1::Edit::kApplyForce: {
+      const v1::ApplyForce& f = e.apply_force();
+      return f.has_point() ? w->apply_force(body(f.body()), get(f.force()), get(f.point()))
+                           : w->apply_force_to_center(body(f.body()), get(f.force()));
+    }
+    case v1::Edit::kApplyImpulse: {
+      const v1::ApplyImpulse& i = e.apply_impulse();
+      if (!std::isfinite(i.angular_impulse())) {
+        return invalid_argument("angular_impulse: must be finite");
+      }
+      Result<BodyState> state = w->body_state(body(i.body()));
+      if (!state.ok()) return state.status();
+      Vec2 point = i.has_point() ? get(i.point()) : state->center;
+      FULCRUM_RETURN_IF_ERROR(w->apply_linear_impulse(body(i.body()), get(i.impulse()), point));
+      if (i.angular_impulse() != 0.0) {
+        return w->apply_angular_impulse(body(i.body()), i.angular_impulse());
+      }
+      return {};
+    }
+    case v1::Edit::kApplyTorque:
+      return w->apply_torque(body(e.apply_torque().body()), e.apply_torque().torque());
+    case v1::Edit::kSetMaterial: {
+      const v1::SetMaterial& m = e.set_material();
+      return w->set_shape_material(shape(m.shape()), m.friction(), m.restitution());
+    }
+    case v1::Edit::kSetFilter:
+      return w->set_shape_filter(shape(e.set_filter().shape()),
+                                 scene_filter_from_proto(e.set_filter().filter()));
+    case v1::Edit::kSetMotor:
+      return w->set_motor_speed(joint(e.set_motor().joint()), e.set_motor().speed());
+    case v1::Edit::kSetJointTarget:
+      return w->set_joint_target(joint(e.set_joint_target().joint()),
+                                 get(e.set_joint_target().target()));
+    case v1::Edit::kSetGravity: {
+      WorldSettings s = w->settings();
+      s.gravity = get(e.set_gravity());
+      Status st = w->set_settings(s);
+      if (!st.ok()) return invalid_argument("must be finite");
+      return {};
+    }
+    case v1::Edit::kSetSettings: {
+      WorldSettings s = w->settings();
+      FULCRUM_RETURN_IF_ERROR(world_settings_from_proto(e.set_settings(), path, &s));
+      return w->set_settings(s);
+    }
+    case v1::Edit::kSetAwake:
+      return w->set_awake(body(e.set_awake().body()), e.set_awake().awake());
+    case v1::Edit::KIND_NOT_SET:
+      break;
+  }
+  return invalid_argument("no edit given (set exactly one kind)");
+}
+
+// "edits[3].set_velocity" + ": ..." or ".linear: ..." from the World's own message.
+Status located(const Status& s, const std::string& path) {
+  const std::string& m = s.message();
+  if (m.rfind(path, 0) == 0) return s;  // already names the path
+  return Status(s.code(), path +
+                              (m.rfind("body {", 0) == 0 || m.rfind("shape {", 0) == 0 ||
+                                       m.rfind("joint {", 0) == 0
+                                   ? ": "
+                                   : ".") +
+                              m);
+}
+
+}  // namespace
+
+Result<EditOutcome> apply_edit_batch(World* world, const v1::EditBatch& batch, size_t max_edits) {
+  if (batch.edits_size() == 0) return invalid_argument("edits: the batch is empty");
+  if (static_cast<size_t>(batch.edits_size()) > max_edits) {
+    return Status(StatusCode::kResourceExhausted, "edits: " + std::to_string(batch.edits_size()) +
+                                                      " edits, at most " +
+                                                      std::to_string(max_edits) + " per batch");
+  }
+  WorldSnapshot before = world->snapshot();
+  EditOutcome out;
+  for (int i = 0; i < batch.edits_size(); ++i) {
+    const v1::Edit& e = batch.edits(i);
+    std::string path = "edits[" + std::to_string(i) + "]";
+    if (e.kind_case() != v1::Edit::KIND_NOT_SET) {
+      path += "." + std::string(e.GetDescriptor()->FindFieldByNumber(e.kind_case())->name());
+    }
+    Status st = apply_one(world, e, path, &out);
+    if (!st.ok()) {
+      // The snapshot came from this world a moment ago; putting it back cannot fail.
+      Status back = world->restore(before);
+      (void)back;
+      return located(st, path);
+    }
+  }
+  return out;
+}
+
+Result<v1::EditScript> load_edit_script(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return not_found(path + ": cannot open the edit script");
+  std::ostringstream text;
+  text << in.rdbuf();
+  v1::EditScript script;
+  google::protobuf::util::JsonParseOptions options;
+  options.ignore_unknown_fields = false;
+  auto status = google::protobuf::util::JsonStringToMessage(text.str(), &script, options);
+  if (!status.ok()) return invalid_argument(path + ": " + std::string(status.message()));
+  for (int i = 0; i < script.entries_size(); ++i) {
+    if (script.entries(i).tick() < 0) {
+      return invalid_argument(path + ": entries[" + std::to_string(i) + "].tick: must be >= 0");
+    }
+  }
+  std::stable_sort(
+      script.mutable_entries()->begin(), script.mutable_entries()->end(),
+      [](const v1::TimedEdits& a, const v1::TimedEdits& b) { return a.tick() < b.tick(); });
+  return script;
+}
+
+}  // namespace fulcrum
