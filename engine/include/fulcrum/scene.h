@@ -24,7 +24,9 @@ struct SceneBody {
 struct SceneJoint {
   int body_a = 0;
   int body_b = 0;
-  std::variant<DistanceJointDef, RevoluteJointDef> def;
+  std::variant<DistanceJointDef, RevoluteJointDef, WeldJointDef, PrismaticJointDef, WheelJointDef,
+               MotorJointDef>
+      def;
 };
 
 struct SceneDef {
