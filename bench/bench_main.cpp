@@ -80,9 +80,9 @@ Row run(const Entry& e, int repeats, int iterations) {
 
 int main(int argc, char** argv) {
   std::vector<Entry> table = {
-      {"large_pyramid", 500}, {"many_pyramids", 500}, {"many_pyramids_grid", 200},
-      {"tumbler", 750},       {"particle_pile", 300}, {"circle_pile", 300},
-      {"joint_grid", 500},    {"cloth", 600},         {"ragdolls", 600}};
+      {"large_pyramid", 500}, {"many_pyramids", 500}, {"many_pyramids_grid", 200}, {"tumbler", 750},
+      {"particle_pile", 300}, {"circle_pile", 300},   {"joint_grid", 500},         {"cloth", 600},
+      {"ragdolls", 600},      {"ragdoll_rain", 300}};
   std::vector<Entry> chosen;
   int repeats = 3, steps = 0, iterations = 0;
   bool csv = false;

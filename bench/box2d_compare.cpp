@@ -52,6 +52,7 @@ struct ConversionNotes {
   int skipped_capsules = 0;
   int rounded_polygons = 0;  // polygon radius dropped (Box2D's skin is fixed)
   int wide_filters = 0;      // filter bits beyond Box2D's 16 (truncated)
+  int skipped_joints = 0;    // joint kinds the twin does not convert (weld, prismatic, ...)
 };
 
 using Clock = std::chrono::steady_clock;
@@ -253,18 +254,19 @@ std::unique_ptr<b2World> convert(const fulcrum::SceneDef& scene, std::vector<b2B
       jd.maxMotorTorque = static_cast<float>(r->max_motor_torque);
       jd.collideConnected = r->collide_connected;
       world->CreateJoint(&jd);
-    } else {
-      const auto& d = std::get<fulcrum::DistanceJointDef>(sj.def);
+    } else if (const auto* d = std::get_if<fulcrum::DistanceJointDef>(&sj.def)) {
       b2DistanceJointDef jd;
       jd.bodyA = a;
       jd.bodyB = b;
-      jd.localAnchorA = to_b2(d.local_anchor_a);
-      jd.localAnchorB = to_b2(d.local_anchor_b);
-      jd.length = static_cast<float>(d.length);
-      jd.minLength = static_cast<float>(d.min_length);
-      jd.maxLength = static_cast<float>(d.max_length);
-      jd.collideConnected = d.collide_connected;
+      jd.localAnchorA = to_b2(d->local_anchor_a);
+      jd.localAnchorB = to_b2(d->local_anchor_b);
+      jd.length = static_cast<float>(d->length);
+      jd.minLength = static_cast<float>(d->min_length);
+      jd.maxLength = static_cast<float>(d->max_length);
+      jd.collideConnected = d->collide_connected;
       world->CreateJoint(&jd);
+    } else {
+      ++notes->skipped_joints;
     }
   }
   return world;
@@ -467,12 +469,13 @@ int main(int argc, char** argv) {
                 r.fulcrum.max_penetration, r.box2d.max_penetration, r.fulcrum.moved, r.box2d.moved);
     std::fflush(stdout);
     const ConversionNotes& n = r.notes;
-    if (n.skipped_capsules + n.rounded_polygons + n.wide_filters > 0) {
-      char buf[256];
+    if (n.skipped_capsules + n.rounded_polygons + n.wide_filters + n.skipped_joints > 0) {
+      char buf[320];
       std::snprintf(buf, sizeof buf,
                     "- %s: Box2D twin skipped %d capsule(s), dropped the radius of %d rounded "
-                    "polygon(s), truncated %d filter(s) to 16 bits",
-                    e.scene.c_str(), n.skipped_capsules, n.rounded_polygons, n.wide_filters);
+                    "polygon(s), truncated %d filter(s) to 16 bits, skipped %d joint(s)",
+                    e.scene.c_str(), n.skipped_capsules, n.rounded_polygons, n.wide_filters,
+                    n.skipped_joints);
       notes.push_back(buf);
     }
     for (const auto& [engine, f] : {std::pair{"Fulcrum", r.fulcrum}, std::pair{"Box2D", r.box2d}}) {

@@ -18,8 +18,8 @@
 // approached faster than the threshold and carried load: they leave at -e times that speed.
 //
 // One tick = `substeps` substeps of h = dt / substeps, each:
-//   integrate velocities -> warm start -> solve (with feedback) -> integrate positions
-//   -> relax (without feedback),
+//   integrate velocities (spring forces, gravity) -> warm start -> solve (with feedback)
+//   -> integrate positions -> relax (without feedback),
 // then restitution and store impulses. The separation is updated every pass from the bodies'
 // motion since the tick began, with the anchors held fixed (no new collision per substep).
 #include <algorithm>
@@ -554,6 +554,8 @@ void WorldImpl::solve(const std::vector<int>& awake) {
   prepare_joints(awake, h);
   for (int sub = 0; sub < set.substeps; ++sub) {
     record_speed_before(s);
+    // Applied forces, all from the state at the substep's start (explicit), then constraints.
+    apply_spring_forces(h);
     integrate_velocities(*this, awake, s, h);
     track_approach(s, 1.0 / h);
     // Later substeps always start from the impulses of the one before.

@@ -73,7 +73,8 @@ struct SolverScratch {
   std::vector<int> contacts;
   std::vector<int> restitution_rows;  // rows with restitution > 0
   std::vector<int> joints;            // awake joints, by id
-  std::vector<JointRow> joint_rows;
+  std::vector<JointRow> joint_rows;   // constraints
+  std::vector<JointRow> spring_rows;  // spring force elements
 };
 
 }  // namespace fulcrum

@@ -44,6 +44,14 @@ const char* joint_type_name(JointType type) {
       return "target";
     case JointType::kPrismatic:
       return "prismatic";
+    case JointType::kWheel:
+      return "wheel";
+    case JointType::kMotor:
+      return "motor";
+    case JointType::kCurve:
+      return "curve";
+    case JointType::kSpring:
+      return "spring";
   }
   return "unknown";
 }
@@ -106,6 +114,9 @@ Status validate_prismatic_joint_def(const PrismaticJointDef& d) {
   }
   FULCRUM_RETURN_IF_ERROR(check_finite("joint.motor_speed", d.motor_speed));
   FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.max_motor_force", d.max_motor_force));
+  FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.hertz", d.hertz));
+  FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.damping_ratio", d.damping_ratio));
+  FULCRUM_RETURN_IF_ERROR(check_finite("joint.target_translation", d.target_translation));
   return {};
 }
 
@@ -176,6 +187,8 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
 
   const Softness soft = joint_softness(settings.joint_hertz, settings.joint_damping_ratio, h);
   s.joint_rows.resize(s.joints.size());
+  s.spring_rows.clear();
+  size_t n_rows = 0;
   for (size_t k = 0; k < s.joints.size(); ++k) {
     Joint& j = joints[s.joints[k]];
     if (!settings.warm_starting) {
@@ -185,7 +198,9 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     }
     const Body& ba = bodies[j.body_a];
     const Body& bb = bodies[j.body_b];
-    JointRow& r = s.joint_rows[k];
+    // Spring force elements have rows of their own; constraints fill joint_rows in id order.
+    JointRow& r =
+        j.type == JointType::kSpring ? s.spring_rows.emplace_back() : s.joint_rows[n_rows++];
     r = JointRow{};
     r.joint = s.joints[k];
     r.ia = ba.awake ? s.body_slot[j.body_a] : 0;
@@ -206,19 +221,24 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     if (j.type == JointType::kTarget) {
       r.dcx = bb.center.x() - j.target.x();
       r.dcy = bb.center.y() - j.target.y();
-    } else if (j.type == JointType::kPrismatic) {
+    } else if (j.type == JointType::kCurve) {
+      r.dcx = bb.center.x();  // the curve is in world coordinates
+      r.dcy = bb.center.y();
+    } else if (j.type == JointType::kPrismatic || j.type == JointType::kWheel) {
       Vec2 axis = ba.xf.q.rotate(j.local_axis);
       r.axis_x = axis.x();
       r.axis_y = axis.y();
       r.angle = relative_angle(ba.xf.q, bb.xf.q, j.reference_angle);
+      if (j.type == JointType::kWheel) prepare_revolute_joint(j, r, a, b);  // the motor's mass
     } else if (j.type == JointType::kDistance) {
       prepare_distance_joint(j, r, a, b);
-    } else {
-      // Revolute and weld: the angle row's mass and the joint angle at tick start.
+    } else if (j.type != JointType::kSpring) {
+      // Revolute, weld and motor: the angle row's mass and the joint angle at tick start.
       r.angle = relative_angle(ba.xf.q, bb.xf.q, j.reference_angle);
       prepare_revolute_joint(j, r, a, b);
     }
   }
+  s.joint_rows.resize(n_rows);
 }
 
 void WorldImpl::warm_start_joints() {
@@ -243,6 +263,17 @@ void WorldImpl::warm_start_joints() {
       case JointType::kPrismatic:
         warm_start_prismatic_joint(j, r, a, b);
         break;
+      case JointType::kWheel:
+        warm_start_wheel_joint(j, r, a, b);
+        break;
+      case JointType::kMotor:
+        warm_start_motor_joint(j, r, a, b);
+        break;
+      case JointType::kCurve:
+        warm_start_curve_joint(j, r, b);
+        break;
+      case JointType::kSpring:
+        break;  // a force, applied with the velocities (apply_spring_forces)
     }
   }
 }
@@ -276,6 +307,17 @@ void WorldImpl::solve_joints(bool use_bias) {
       case JointType::kPrismatic:
         solve_prismatic_joint(j, r, st, a, b);
         break;
+      case JointType::kWheel:
+        solve_wheel_joint(j, r, st, a, b);
+        break;
+      case JointType::kMotor:
+        solve_motor_joint(j, r, st, a, b);
+        break;
+      case JointType::kCurve:
+        solve_curve_joint(j, r, st, b);
+        break;
+      case JointType::kSpring:
+        break;
     }
   }
 }
@@ -292,8 +334,20 @@ void joint_reaction(const Joint& j, double inv_h, const Vec2& axis, Vec2* force,
     // axis: the slide axis; linear_impulse holds the line row (along its perpendicular) and
     // the angle row.
     double axial = j.motor_impulse + j.lower_impulse - j.upper_impulse;
+    if (j.enable_spring) axial += j.spring_impulse;
     *force = inv_h * (axial * axis + j.linear_impulse.x() * left_perp(axis));
     *torque = inv_h * j.linear_impulse.y();
+  } else if (j.type == JointType::kWheel) {
+    // axis: the suspension axis; the line row pushes along its perpendicular, the motor turns.
+    double axial = j.spring_impulse + j.lower_impulse - j.upper_impulse;
+    *force = inv_h * (axial * axis + j.linear_impulse.x() * left_perp(axis));
+    *torque = inv_h * j.motor_impulse;
+  } else if (j.type == JointType::kCurve) {
+    *force = inv_h * j.axial_impulse * axis;  // axis: the curve normal
+    *torque = 0.0;
+  } else if (j.type == JointType::kSpring) {
+    *force = inv_h * j.spring_impulse * axis;  // axis: anchor A -> anchor B
+    *torque = 0.0;
   } else if (j.type == JointType::kRevolute) {
     *force = inv_h * j.linear_impulse;
     *torque = inv_h * (j.spring_impulse + j.motor_impulse + j.lower_impulse - j.upper_impulse);
@@ -312,8 +366,8 @@ void WorldImpl::break_joints() {
     if (!j.alive || (std::isinf(j.break_force) && std::isinf(j.break_torque))) continue;
     Vec2 force;
     double torque;
-    // Any unit axis gives the right size of force (a distance joint's lies along its axis, a
-    // prismatic joint's rows are orthogonal).
+    // Any unit axis gives the right size of force (a distance joint's, a curve joint's and a
+    // spring's lie along their axis, a prismatic or wheel joint's rows are orthogonal).
     joint_reaction(j, inv_h, Vec2(1.0, 0.0), &force, &torque);
     if (length(force) > j.break_force || std::abs(torque) > j.break_torque) {
       events.joints_broken.push_back(joint_id(ji));
@@ -326,9 +380,9 @@ void WorldImpl::break_joints() {
 
 // --- World -------------------------------------------------------------------------------------
 
-namespace {
-
-Result<int> add_joint(WorldImpl& w, BodyId body_a, BodyId body_b, bool collide_connected) {
+Result<int> WorldImpl::add_joint(JointType type, BodyId body_a, BodyId body_b,
+                                 bool collide_connected) {
+  WorldImpl& w = *this;
   int a = w.body_index(body_a);
   if (a == kNullIndex) {
     return not_found("joint.body_a: unknown or destroyed body {" + std::to_string(body_a.index) +
@@ -351,6 +405,7 @@ Result<int> add_joint(WorldImpl& w, BodyId body_a, BodyId body_b, bool collide_c
   Joint& j = w.joints[ji];
   uint32_t generation = j.generation + 1;
   j = Joint{};
+  j.type = type;
   j.generation = generation;
   j.alive = true;
   j.body_a = a;
@@ -375,15 +430,16 @@ Result<int> add_joint(WorldImpl& w, BodyId body_a, BodyId body_b, bool collide_c
   return ji;
 }
 
+namespace {
+
 // The common start of create_*_joint: the definition's own check, then a joint between its
 // two bodies with its anchors.
 template <typename Def>
 Result<int> start_joint(WorldImpl& w, const Def& def, const Status& valid, JointType type) {
   if (!valid.ok()) return valid;
-  Result<int> ji = add_joint(w, def.body_a, def.body_b, def.collide_connected);
+  Result<int> ji = w.add_joint(type, def.body_a, def.body_b, def.collide_connected);
   if (!ji.ok()) return ji;
   Joint& j = w.joints[*ji];
-  j.type = type;
   j.local_a = def.local_anchor_a;
   j.local_b = def.local_anchor_b;
   return ji;
@@ -446,6 +502,10 @@ Result<JointId> World::create_prismatic_joint(const PrismaticJointDef& def) {
   j.enable_motor = def.enable_motor;
   j.motor_speed = def.motor_speed;
   j.max_motor_force = def.max_motor_force;
+  j.enable_spring = def.enable_spring;
+  j.hertz = def.enable_spring ? def.hertz : 0.0;
+  j.damping_ratio = def.damping_ratio;
+  j.target_translation = def.target_translation;
   return impl_->joint_id(*ji);
 }
 
@@ -455,10 +515,9 @@ Result<JointId> World::create_target_joint(const TargetJointDef& def) {
   if (a != kNullIndex && impl_->bodies[a].type != BodyType::kStatic) {
     return invalid_argument("joint.body_a: must be a static body (the target's frame)");
   }
-  Result<int> ji = add_joint(*impl_, def.body_a, def.body_b, true);
+  Result<int> ji = impl_->add_joint(JointType::kTarget, def.body_a, def.body_b, true);
   if (!ji.ok()) return ji.status();
   Joint& j = impl_->joints[*ji];
-  j.type = JointType::kTarget;
   j.local_b = def.local_anchor_b;
   j.target = def.target;
   j.max_force = def.max_force;
@@ -532,19 +591,29 @@ Result<JointState> World::joint_state(JointId id) const {
   s.length = length(d);
   // Impulses are per substep: force = impulse / substep.
   const double inv_h = w.settings.substeps / w.settings.dt;
-  Vec2 axis = j.type == JointType::kPrismatic ? a.xf.q.rotate(j.local_axis) : normalize_or_zero(d);
+  const bool line = j.type == JointType::kPrismatic || j.type == JointType::kWheel;
+  Vec2 axis = line ? a.xf.q.rotate(j.local_axis) : normalize_or_zero(d);
+  if (j.type == JointType::kCurve) {
+    CurvePoint cp = closest_on_curve(j, s.anchor_b);
+    axis = cp.normal;
+    s.anchor_a = cp.closest;
+    s.length = s.linear_error = std::abs(dot(cp.normal, s.anchor_b - cp.closest));
+  }
   joint_reaction(j, inv_h, axis, &s.reaction_force, &s.reaction_torque);
   if (j.type == JointType::kDistance) {
     s.linear_error = std::max({0.0, j.min_length - s.length, s.length - j.max_length});
+  } else if (j.type == JointType::kCurve || j.type == JointType::kSpring) {
+    // Curve: set above. Spring: a force element has no error (its extension is its state).
   } else {
     s.motor_torque = inv_h * j.motor_impulse;
     s.angle = relative_angle(a.xf.q, b.xf.q, j.reference_angle);
     s.linear_error = s.length;
-    if (j.type == JointType::kPrismatic) {
-      // length: the translation along the axis; linear error: off the line.
+    if (line) {
+      // length: the translation along the axis; linear error: off the line. A wheel turns
+      // freely: its angle is the wheel's rotation, not an error.
       s.length = dot(axis, d);
       s.linear_error = std::abs(cross(axis, d));
-      s.angular_error = std::abs(s.angle);
+      if (j.type == JointType::kPrismatic) s.angular_error = std::abs(s.angle);
       if (j.enable_limit) {
         s.linear_error =
             std::max({s.linear_error, j.lower_angle - s.length, s.length - j.upper_angle});
@@ -554,7 +623,9 @@ Result<JointState> World::joint_state(JointId id) const {
       s.linear_error = length(s.anchor_b - j.target);
       s.length = s.linear_error;
       s.angle = 0.0;
-    } else if (j.type == JointType::kWeld) {
+    } else if (j.type == JointType::kWeld || j.type == JointType::kMotor) {
+      // Motor: anchor_a is the target point (A's frame at the offset), anchor_b B's origin;
+      // the errors are how far the pose lags the target.
       s.angular_error = std::abs(s.angle);
     } else if (j.enable_limit) {
       s.angular_error = std::max({0.0, j.lower_angle - s.angle, s.angle - j.upper_angle});

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "contact_solver.h"
+#include "fulcrum/math.h"
 
 namespace fulcrum {
 
@@ -61,6 +62,56 @@ inline void apply_joint_impulse(const JointFrame& f, double px, double py, Solve
   b.w += b.inv_inertia * (f.rbx * py - f.rby * px);
 }
 
+// A line joint's frame (prismatic, wheel): axis u fixed in body A, d = anchor B - anchor A.
+//   along u:  J = [-u, -(d + ra) x u, u, rb x u]   (a1 = (d + ra) x u, a2 = rb x u)
+//   along p = perp(u):  J = [-p, -(d + ra) x p, p, rb x p]   (s1, s2 likewise)
+struct LineFrame {
+  JointFrame f;
+  double ux, uy;  // axis now
+  double a1, a2;  // (d + ra) x u and rb x u
+  double s1, s2;  // (d + ra) x p and rb x p, p = (-uy, ux)
+};
+
+inline LineFrame line_frame(const JointRow& r, const SolverBody& a, const SolverBody& b) {
+  LineFrame fr;
+  fr.f = joint_frame(r, a, b);
+  fr.ux = a.qc * r.axis_x - a.qs * r.axis_y;
+  fr.uy = a.qs * r.axis_x + a.qc * r.axis_y;
+  double dax = fr.f.dx + fr.f.rax, day = fr.f.dy + fr.f.ray;
+  fr.a1 = dax * fr.uy - day * fr.ux;
+  fr.a2 = fr.f.rbx * fr.uy - fr.f.rby * fr.ux;
+  double px = -fr.uy, py = fr.ux;
+  fr.s1 = dax * py - day * px;
+  fr.s2 = fr.f.rbx * py - fr.f.rby * px;
+  return fr;
+}
+
+// Impulse along the axis: P = lambda u at the anchors (angular parts a1, a2).
+inline void apply_line_axial(const LineFrame& fr, double lambda, SolverBody& a, SolverBody& b) {
+  double px = lambda * fr.ux, py = lambda * fr.uy;
+  a.vx -= a.inv_mass * px;
+  a.vy -= a.inv_mass * py;
+  a.w -= a.inv_inertia * (lambda * fr.a1);
+  b.vx += b.inv_mass * px;
+  b.vy += b.inv_mass * py;
+  b.w += b.inv_inertia * (lambda * fr.a2);
+}
+
+inline double line_axial_speed(const LineFrame& fr, const SolverBody& a, const SolverBody& b) {
+  return fr.ux * (b.vx - a.vx) + fr.uy * (b.vy - a.vy) + fr.a2 * b.w - fr.a1 * a.w;
+}
+
+inline double line_axial_mass(const LineFrame& fr, const SolverBody& a, const SolverBody& b) {
+  double k =
+      a.inv_mass + b.inv_mass + a.inv_inertia * fr.a1 * fr.a1 + b.inv_inertia * fr.a2 * fr.a2;
+  return k > 0.0 ? 1.0 / k : 0.0;
+}
+
+// The translation limits of a line joint along its axis (lower <= t <= upper), as two
+// inequality rows, speculative until reached. Shared by prismatic and wheel joints.
+void solve_line_limits(Joint& j, const LineFrame& fr, double m, const JointRow& r,
+                       const JointStep& st, SolverBody& a, SolverBody& b);
+
 // The feedback for position error C of a joint row in this pass: bias, mass and impulse
 // scales (see contact_solver.cpp for the soft form).
 inline void joint_bias(const JointStep& st, const Softness& soft, double c, double* bias,
@@ -93,6 +144,28 @@ void solve_target_joint(Joint& j, const JointRow& r, const JointStep& st, Solver
 void warm_start_prismatic_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b);
 void solve_prismatic_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
                            SolverBody& b);
+
+void warm_start_wheel_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b);
+void solve_wheel_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
+                       SolverBody& b);
+
+void warm_start_motor_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b);
+void solve_motor_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
+                       SolverBody& b);
+
+// Curve joints: the closest point of the curve to p and the unit normal there, oriented
+// consistently along the curve (line and polyline: to the left of the direction of travel;
+// circle: outward), so that C = n . (p - closest) is a signed distance.
+struct CurvePoint {
+  Vec2 closest = Vec2::Zero();
+  Vec2 normal = Vec2(0.0, 1.0);
+};
+CurvePoint closest_on_curve(const Joint& j, const Vec2& p);
+void warm_start_curve_joint(const Joint& j, const JointRow& r, SolverBody& b);
+void solve_curve_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& b);
+
+// Spring force elements: one substep's force, applied as the impulse h F.
+void apply_spring_force(Joint& j, const JointRow& r, double h, SolverBody& a, SolverBody& b);
 
 void prepare_revolute_joint(const Joint& j, JointRow& r, const SolverBody& a, const SolverBody& b);
 void warm_start_revolute_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b);

@@ -3,8 +3,10 @@
 //   Line:   C1 = p . d,  J1 = [-p, -(d + ra) x p, p, rb x p]
 //   Angle:  C2 = angle_b - angle_a - reference,  J2 = [0, -1, 0, 1]   (solved with C1 as 2x2)
 //   Axis:   translation t = u . d,  J = [-u, -(d + ra) x u, u, rb x u]: limits t - lower >= 0,
-//           upper - t >= 0; motor dt/dt - speed = 0 with |accumulated| <= max_force h.
-// Solved in order motor, limits, line and angle.
+//           upper - t >= 0; motor dt/dt - speed = 0 with |accumulated| <= max_force h;
+//           spring: a soft row C = t - target_translation of the spring's frequency,
+//           m = 1 / (ma + mb + ia a1^2 + ib a2^2) (LineFrame in joint_solver.h).
+// Solved in order spring, motor, limits, line and angle.
 #include <algorithm>
 #include <cmath>
 
@@ -13,55 +15,42 @@
 
 namespace fulcrum {
 
-namespace {
-
-struct Frame {
-  JointFrame f;
-  double ux, uy;  // axis now
-  double a1, a2;  // (d + ra) x u and rb x u
-  double s1, s2;  // (d + ra) x p and rb x p, p = (-uy, ux)
-};
-
-Frame frame_of(const JointRow& r, const SolverBody& a, const SolverBody& b) {
-  Frame fr;
-  fr.f = joint_frame(r, a, b);
-  fr.ux = a.qc * r.axis_x - a.qs * r.axis_y;
-  fr.uy = a.qs * r.axis_x + a.qc * r.axis_y;
-  double dax = fr.f.dx + fr.f.rax, day = fr.f.dy + fr.f.ray;
-  fr.a1 = dax * fr.uy - day * fr.ux;
-  fr.a2 = fr.f.rbx * fr.uy - fr.f.rby * fr.ux;
-  double px = -fr.uy, py = fr.ux;
-  fr.s1 = dax * py - day * px;
-  fr.s2 = fr.f.rbx * py - fr.f.rby * px;
-  return fr;
+void solve_line_limits(Joint& j, const LineFrame& fr, double m, const JointRow& r,
+                       const JointStep& st, SolverBody& a, SolverBody& b) {
+  const double t = fr.ux * fr.f.dx + fr.uy * fr.f.dy;
+  double bias, ms, is;
+  double c = t - j.lower_angle;  // lower translation
+  if (c > 0.0) {
+    bias = c * st.inv_h;
+    ms = 1.0;
+    is = 0.0;
+  } else {
+    joint_bias(st, r.soft, c, &bias, &ms, &is);
+  }
+  double lambda = -ms * m * (line_axial_speed(fr, a, b) + bias) - is * j.lower_impulse;
+  double acc = std::max(j.lower_impulse + lambda, 0.0);
+  lambda = acc - j.lower_impulse;
+  j.lower_impulse = acc;
+  apply_line_axial(fr, lambda, a, b);
+  c = j.upper_angle - t;  // upper translation
+  if (c > 0.0) {
+    bias = c * st.inv_h;
+    ms = 1.0;
+    is = 0.0;
+  } else {
+    joint_bias(st, r.soft, c, &bias, &ms, &is);
+  }
+  lambda = -ms * m * (-line_axial_speed(fr, a, b) + bias) - is * j.upper_impulse;
+  acc = std::max(j.upper_impulse + lambda, 0.0);
+  lambda = acc - j.upper_impulse;
+  j.upper_impulse = acc;
+  apply_line_axial(fr, -lambda, a, b);
 }
-
-// Impulse along the axis: P = lambda u at the anchors (angular parts a1, a2).
-void apply_axial(const Frame& fr, double lambda, SolverBody& a, SolverBody& b) {
-  double px = lambda * fr.ux, py = lambda * fr.uy;
-  a.vx -= a.inv_mass * px;
-  a.vy -= a.inv_mass * py;
-  a.w -= a.inv_inertia * (lambda * fr.a1);
-  b.vx += b.inv_mass * px;
-  b.vy += b.inv_mass * py;
-  b.w += b.inv_inertia * (lambda * fr.a2);
-}
-
-double axial_speed(const Frame& fr, const SolverBody& a, const SolverBody& b) {
-  return fr.ux * (b.vx - a.vx) + fr.uy * (b.vy - a.vy) + fr.a2 * b.w - fr.a1 * a.w;
-}
-
-double axial_mass(const Frame& fr, const SolverBody& a, const SolverBody& b) {
-  double k =
-      a.inv_mass + b.inv_mass + a.inv_inertia * fr.a1 * fr.a1 + b.inv_inertia * fr.a2 * fr.a2;
-  return k > 0.0 ? 1.0 / k : 0.0;
-}
-
-}  // namespace
 
 void warm_start_prismatic_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b) {
-  Frame fr = frame_of(r, a, b);
+  LineFrame fr = line_frame(r, a, b);
   double axial = j.motor_impulse + j.lower_impulse - j.upper_impulse;
+  if (j.enable_spring) axial += j.spring_impulse;
   double perp = j.linear_impulse.x(), angle = j.linear_impulse.y();
   double px = axial * fr.ux - perp * fr.uy, py = axial * fr.uy + perp * fr.ux;
   double la = axial * fr.a1 + perp * fr.s1 + angle;
@@ -76,46 +65,25 @@ void warm_start_prismatic_joint(const Joint& j, const JointRow& r, SolverBody& a
 
 void solve_prismatic_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
                            SolverBody& b) {
-  Frame fr = frame_of(r, a, b);
-  const double m = axial_mass(fr, a, b);
+  LineFrame fr = line_frame(r, a, b);
+  const double m = line_axial_mass(fr, a, b);
+  if (j.enable_spring && j.hertz > 0.0) {
+    double c = fr.ux * fr.f.dx + fr.uy * fr.f.dy - j.target_translation;
+    double lambda =
+        -r.spring.mass_scale * m * (line_axial_speed(fr, a, b) + r.spring.bias_rate * c) -
+        r.spring.impulse_scale * j.spring_impulse;
+    j.spring_impulse += lambda;
+    apply_line_axial(fr, lambda, a, b);
+  }
   if (j.enable_motor) {
-    double lambda = m * (j.motor_speed - axial_speed(fr, a, b));
+    double lambda = m * (j.motor_speed - line_axial_speed(fr, a, b));
     double limit = j.max_motor_force * st.h;
     double acc = std::clamp(j.motor_impulse + lambda, -limit, limit);
     lambda = acc - j.motor_impulse;
     j.motor_impulse = acc;
-    apply_axial(fr, lambda, a, b);
+    apply_line_axial(fr, lambda, a, b);
   }
-  if (j.enable_limit) {
-    const double t = fr.ux * fr.f.dx + fr.uy * fr.f.dy;
-    double bias, ms, is;
-    double c = t - j.lower_angle;  // lower translation
-    if (c > 0.0) {
-      bias = c * st.inv_h;
-      ms = 1.0;
-      is = 0.0;
-    } else {
-      joint_bias(st, r.soft, c, &bias, &ms, &is);
-    }
-    double lambda = -ms * m * (axial_speed(fr, a, b) + bias) - is * j.lower_impulse;
-    double acc = std::max(j.lower_impulse + lambda, 0.0);
-    lambda = acc - j.lower_impulse;
-    j.lower_impulse = acc;
-    apply_axial(fr, lambda, a, b);
-    c = j.upper_angle - t;  // upper translation
-    if (c > 0.0) {
-      bias = c * st.inv_h;
-      ms = 1.0;
-      is = 0.0;
-    } else {
-      joint_bias(st, r.soft, c, &bias, &ms, &is);
-    }
-    lambda = -ms * m * (-axial_speed(fr, a, b) + bias) - is * j.upper_impulse;
-    acc = std::max(j.upper_impulse + lambda, 0.0);
-    lambda = acc - j.upper_impulse;
-    j.upper_impulse = acc;
-    apply_axial(fr, -lambda, a, b);
-  }
+  if (j.enable_limit) solve_line_limits(j, fr, m, r, st, a, b);
   // Line and angle together.
   const double px = -fr.uy, py = fr.ux;
   double cd1 = px * (b.vx - a.vx) + py * (b.vy - a.vy) + fr.s2 * b.w - fr.s1 * a.w;

@@ -1,7 +1,6 @@
 #include "fulcrum/scene.h"
 
 #include <string>
-#include <type_traits>
 #include <variant>
 
 namespace fulcrum {
@@ -18,6 +17,44 @@ Status at(const Status& s, const std::string& where, const char* kind) {
   else if (msg.rfind(kind, 0) == 0)
     msg = msg.substr(std::string(kind).size());
   return Status(s.code(), where + (msg.rfind(":", 0) == 0 ? "" : ".") + msg);
+}
+
+Status validate(const DistanceJointDef& d) {
+  return validate_distance_joint_def(d);
+}
+Status validate(const RevoluteJointDef& d) {
+  return validate_revolute_joint_def(d);
+}
+Status validate(const WeldJointDef& d) {
+  return validate_weld_joint_def(d);
+}
+Status validate(const PrismaticJointDef& d) {
+  return validate_prismatic_joint_def(d);
+}
+Status validate(const WheelJointDef& d) {
+  return validate_wheel_joint_def(d);
+}
+Status validate(const MotorJointDef& d) {
+  return validate_motor_joint_def(d);
+}
+
+Result<JointId> create(World& w, const DistanceJointDef& d) {
+  return w.create_distance_joint(d);
+}
+Result<JointId> create(World& w, const RevoluteJointDef& d) {
+  return w.create_revolute_joint(d);
+}
+Result<JointId> create(World& w, const WeldJointDef& d) {
+  return w.create_weld_joint(d);
+}
+Result<JointId> create(World& w, const PrismaticJointDef& d) {
+  return w.create_prismatic_joint(d);
+}
+Result<JointId> create(World& w, const WheelJointDef& d) {
+  return w.create_wheel_joint(d);
+}
+Result<JointId> create(World& w, const MotorJointDef& d) {
+  return w.create_motor_joint(d);
 }
 
 }  // namespace
@@ -51,9 +88,7 @@ Result<World> build_world(const SceneDef& scene) {
                               " in the scene (" + std::to_string(body_count) + " bodies)");
     }
     if (sj.body_a == sj.body_b) return invalid_argument(where + ".body_b: must differ from body_a");
-    Status s = std::holds_alternative<DistanceJointDef>(sj.def)
-                   ? validate_distance_joint_def(std::get<DistanceJointDef>(sj.def))
-                   : validate_revolute_joint_def(std::get<RevoluteJointDef>(sj.def));
+    Status s = std::visit([](const auto& def) { return validate(def); }, sj.def);
     FULCRUM_RETURN_IF_ERROR(at(s, where, "joint"));
   }
   World world(scene.settings);
@@ -80,20 +115,21 @@ Result<World> build_world(const SceneDef& scene) {
   }
   for (size_t i = 0; i < scene.joints.size(); ++i) {
     const SceneJoint& sj = scene.joints[i];
-    Result<JointId> joint = std::visit(
-        [&](auto def) {
-          def.body_a = ids[sj.body_a];
-          def.body_b = ids[sj.body_b];
-          if constexpr (std::is_same_v<decltype(def), DistanceJointDef>) {
-            return world.create_distance_joint(def);
-          } else {
-            return world.create_revolute_joint(def);
-          }
-        },
-        sj.def);
+    Result<JointId> joint = create_scene_joint(world, sj, ids[sj.body_a], ids[sj.body_b]);
     if (!joint.ok()) return at(joint.status(), "joints[" + std::to_string(i) + "]", "joint");
   }
   return world;
+}
+
+Result<JointId> create_scene_joint(World& world, const SceneJoint& joint, BodyId body_a,
+                                   BodyId body_b) {
+  return std::visit(
+      [&](auto def) {
+        def.body_a = body_a;
+        def.body_b = body_b;
+        return create(world, def);
+      },
+      joint.def);
 }
 
 }  // namespace fulcrum

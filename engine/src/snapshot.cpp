@@ -242,8 +242,14 @@ Status check_joint(const WorldSnapshot& s, size_t ji) {
   const Joint& j = s.joints[ji];
   if (j.generation == 0) return corrupt(at("joint", ji, "generation") + " is 0");
   if (!j.alive) return {};
-  if (static_cast<int>(j.type) > static_cast<int>(JointType::kPrismatic)) {
+  if (static_cast<int>(j.type) > static_cast<int>(JointType::kSpring)) {
     return corrupt(at("joint", ji, "type") + " is unknown");
+  }
+  if (static_cast<int>(j.curve_type) > static_cast<int>(CurveType::kPolyline)) {
+    return corrupt(at("joint", ji, "curve_type") + " is unknown");
+  }
+  for (const Vec2& p : j.curve_points) {
+    FULCRUM_RETURN_IF_ERROR(check_number(at("joint", ji, "curve_points"), p));
   }
   auto lists = [&](int bi) {
     if (!in_range(bi, s.bodies.size()) || !s.bodies[bi].alive) return false;
@@ -280,7 +286,12 @@ Status check_joint(const WorldSnapshot& s, size_t ji) {
                    j.lower_impulse,
                    j.upper_impulse,
                    j.motor_impulse,
-                   j.spring_impulse}) {
+                   j.spring_impulse,
+                   j.target_translation,
+                   j.correction_factor,
+                   j.curve_radius,
+                   j.stiffness,
+                   j.damping}) {
     FULCRUM_RETURN_IF_ERROR(check_not_nan(at("joint", ji, "parameter"), x));
   }
   return {};

@@ -97,6 +97,11 @@ uint64_t World::state_hash() const {
     h.add(j.break_force);
     h.add(j.break_torque);
     h.add(j.target);
+    if (j.type == JointType::kMotor) {
+      // Its targets change every tick (set_motor_joint_targets).
+      h.add(j.local_a);
+      h.add(j.reference_angle);
+    }
   }
   for (int i : w.free_joints) h.add(i);
   for (int i : w.free_bodies) h.add(i);

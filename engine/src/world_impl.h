@@ -50,13 +50,18 @@ class WorldImpl {
   int joint_index(JointId id) const;
   JointId joint_id(int index) const { return JointId{index, joints[index].generation}; }
 
-  // --- joints (joint.cpp, joint_solver.cpp) ---
+  // --- joints (joint.cpp and one file per type) ---
+  // A new joint of `type` between two live, distinct bodies (its type-specific fields at
+  // their defaults); wakes both and drops their contacts unless collide_connected.
+  Result<int> add_joint(JointType type, BodyId body_a, BodyId body_b, bool collide_connected);
   void destroy_joint_at(int joint);
   // Whether a joint between the two bodies forbids their contact.
   bool joint_blocks_contact(int body_a, int body_b) const;
   void prepare_joints(const std::vector<int>& awake, double h);
   void warm_start_joints();
   void solve_joints(bool use_bias);
+  // Spring force elements: one substep's forces into the solver bodies' velocities.
+  void apply_spring_forces(double h);
   // Removes joints whose last tick's reaction passed their break limits.
   void break_joints();
 

@@ -64,27 +64,12 @@ Status apply_one(World* w, const v1::Edit& e, const std::string& path, EditOutco
       return w->destroy_shape(shape(e.destroy_shape()));
     case v1::Edit::kCreateJoint: {
       const v1::CreateJoint& c = e.create_joint();
-      v1::Joint j;  // the scene form, between "body 0" and "body 1"
+      v1::Joint j = c.joint();  // the scene form, between "body 0" and "body 1"
       j.set_body_a(0);
       j.set_body_b(1);
-      *j.mutable_local_anchor_a() = c.local_anchor_a();
-      *j.mutable_local_anchor_b() = c.local_anchor_b();
-      j.set_collide_connected(c.collide_connected());
-      if (c.has_distance()) *j.mutable_distance() = c.distance();
-      if (c.has_revolute()) *j.mutable_revolute() = c.revolute();
       SceneJoint sj;
-      FULCRUM_RETURN_IF_ERROR(scene_joint_from_proto(j, path, 2, &sj));
-      Result<JointId> id = std::visit(
-          [&](auto def) -> Result<JointId> {
-            def.body_a = body(c.body_a());
-            def.body_b = body(c.body_b());
-            if constexpr (std::is_same_v<decltype(def), DistanceJointDef>) {
-              return w->create_distance_joint(def);
-            } else {
-              return w->create_revolute_joint(def);
-            }
-          },
-          sj.def);
+      FULCRUM_RETURN_IF_ERROR(scene_joint_from_proto(j, path + ".joint", 2, &sj));
+      Result<JointId> id = create_scene_joint(*w, sj, body(c.body_a()), body(c.body_b()));
       if (!id.ok()) return id.status();
       out->joints.push_back(*id);
       return {};

@@ -15,6 +15,7 @@
 #include <limits>
 #include <optional>
 #include <sstream>
+#include <type_traits>
 #include <unordered_set>
 #include <utility>
 #include <variant>
@@ -872,13 +873,135 @@ Status joint_from_proto(const v1::Joint& p, const std::string& path, int body_co
     def.damping_ratio = r.damping_ratio();
     def.target_angle = r.target_angle();
     out->def = def;
+  } else if (p.has_weld()) {
+    const v1::WeldJoint& r = p.weld();
+    const std::string where = join(path, "weld");
+    WeldJointDef def;
+    def.local_anchor_a = anchor_a;
+    def.local_anchor_b = anchor_b;
+    def.collide_connected = p.collide_connected();
+    CONVERT_RETURN_IF_ERROR(
+        check(join(where, "reference_angle"), r.reference_angle(), Range::kFinite));
+    for (auto [name, value] : {std::pair<const char*, double>{"linear_hertz", r.linear_hertz()},
+                               {"linear_damping_ratio", r.linear_damping_ratio()},
+                               {"angular_hertz", r.angular_hertz()},
+                               {"angular_damping_ratio", r.angular_damping_ratio()}}) {
+      CONVERT_RETURN_IF_ERROR(check(join(where, name), value, Range::kNonNegative));
+    }
+    def.reference_angle = r.reference_angle();
+    def.linear_hertz = r.linear_hertz();
+    def.linear_damping_ratio = r.linear_damping_ratio();
+    def.angular_hertz = r.angular_hertz();
+    def.angular_damping_ratio = r.angular_damping_ratio();
+    out->def = def;
+  } else if (p.has_prismatic()) {
+    const v1::PrismaticJoint& r = p.prismatic();
+    const std::string where = join(path, "prismatic");
+    PrismaticJointDef def;
+    def.local_anchor_a = anchor_a;
+    def.local_anchor_b = anchor_b;
+    def.collide_connected = p.collide_connected();
+    CONVERT_RETURN_IF_ERROR(read_opt_vec(join(where, "local_axis_a"), r.has_local_axis_a(),
+                                         r.local_axis_a(), &def.local_axis_a));
+    for (auto [name, value] :
+         {std::pair<const char*, double>{"reference_angle", r.reference_angle()},
+          {"lower_translation", r.lower_translation()},
+          {"upper_translation", r.upper_translation()},
+          {"motor_speed", r.motor_speed()},
+          {"target_translation", r.target_translation()}}) {
+      CONVERT_RETURN_IF_ERROR(check(join(where, name), value, Range::kFinite));
+    }
+    for (auto [name, value] :
+         {std::pair<const char*, double>{"max_motor_force", r.max_motor_force()},
+          {"hertz", r.hertz()},
+          {"damping_ratio", r.damping_ratio()}}) {
+      CONVERT_RETURN_IF_ERROR(check(join(where, name), value, Range::kNonNegative));
+    }
+    def.reference_angle = r.reference_angle();
+    def.enable_limit = r.enable_limit();
+    def.lower_translation = r.lower_translation();
+    def.upper_translation = r.upper_translation();
+    def.enable_motor = r.enable_motor();
+    def.motor_speed = r.motor_speed();
+    def.max_motor_force = r.max_motor_force();
+    def.enable_spring = r.enable_spring();
+    def.hertz = r.hertz();
+    def.damping_ratio = r.damping_ratio();
+    def.target_translation = r.target_translation();
+    out->def = def;
+  } else if (p.has_wheel()) {
+    const v1::WheelJoint& r = p.wheel();
+    const std::string where = join(path, "wheel");
+    WheelJointDef def;
+    def.local_anchor_a = anchor_a;
+    def.local_anchor_b = anchor_b;
+    def.collide_connected = p.collide_connected();
+    CONVERT_RETURN_IF_ERROR(read_opt_vec(join(where, "local_axis_a"), r.has_local_axis_a(),
+                                         r.local_axis_a(), &def.local_axis_a));
+    if (r.has_enable_spring()) def.enable_spring = r.enable_spring();
+    CONVERT_RETURN_IF_ERROR(
+        read_opt(join(where, "hertz"), r.has_hertz(), r.hertz(), Range::kNonNegative, &def.hertz));
+    CONVERT_RETURN_IF_ERROR(read_opt(join(where, "damping_ratio"), r.has_damping_ratio(),
+                                     r.damping_ratio(), Range::kNonNegative, &def.damping_ratio));
+    for (auto [name, value] :
+         {std::pair<const char*, double>{"lower_translation", r.lower_translation()},
+          {"upper_translation", r.upper_translation()},
+          {"motor_speed", r.motor_speed()}}) {
+      CONVERT_RETURN_IF_ERROR(check(join(where, name), value, Range::kFinite));
+    }
+    CONVERT_RETURN_IF_ERROR(
+        check(join(where, "max_motor_torque"), r.max_motor_torque(), Range::kNonNegative));
+    def.enable_limit = r.enable_limit();
+    def.lower_translation = r.lower_translation();
+    def.upper_translation = r.upper_translation();
+    def.enable_motor = r.enable_motor();
+    def.motor_speed = r.motor_speed();
+    def.max_motor_torque = r.max_motor_torque();
+    out->def = def;
+  } else if (p.has_motor()) {
+    const v1::MotorJoint& r = p.motor();
+    const std::string where = join(path, "motor");
+    if (p.has_local_anchor_a() || p.has_local_anchor_b()) {
+      return fail(join(path, p.has_local_anchor_a() ? "local_anchor_a" : "local_anchor_b"),
+                  "a motor joint has no anchors (use motor.linear_offset)");
+    }
+    MotorJointDef def;
+    def.collide_connected = p.collide_connected();
+    CONVERT_RETURN_IF_ERROR(read_opt_vec(join(where, "linear_offset"), r.has_linear_offset(),
+                                         r.linear_offset(), &def.linear_offset));
+    CONVERT_RETURN_IF_ERROR(
+        check(join(where, "angular_offset"), r.angular_offset(), Range::kFinite));
+    def.angular_offset = r.angular_offset();
+    CONVERT_RETURN_IF_ERROR(read_opt(join(where, "max_force"), r.has_max_force(), r.max_force(),
+                                     Range::kNonNegative, &def.max_force));
+    CONVERT_RETURN_IF_ERROR(read_opt(join(where, "max_torque"), r.has_max_torque(), r.max_torque(),
+                                     Range::kNonNegative, &def.max_torque));
+    CONVERT_RETURN_IF_ERROR(read_opt(join(where, "correction_factor"), r.has_correction_factor(),
+                                     r.correction_factor(), Range::kUnit, &def.correction_factor));
+    out->def = def;
   } else {
-    return fail(path, "needs a kind (distance or revolute)");
+    return fail(path, "needs a kind (distance, revolute, weld, prismatic, wheel or motor)");
   }
   // Cross-field rules (min <= length <= max, lower <= upper) are the engine's to check.
-  Status s = std::holds_alternative<DistanceJointDef>(out->def)
-                 ? validate_distance_joint_def(std::get<DistanceJointDef>(out->def))
-                 : validate_revolute_joint_def(std::get<RevoluteJointDef>(out->def));
+  Status s = std::visit(
+      [](const auto& def) {
+        using Def = std::decay_t<decltype(def)>;
+        if constexpr (std::is_same_v<Def, DistanceJointDef>) {
+          return validate_distance_joint_def(def);
+        } else if constexpr (std::is_same_v<Def, RevoluteJointDef>) {
+          return validate_revolute_joint_def(def);
+        } else if constexpr (std::is_same_v<Def, WeldJointDef>) {
+          return validate_weld_joint_def(def);
+        } else if constexpr (std::is_same_v<Def, PrismaticJointDef>) {
+          return validate_prismatic_joint_def(def);
+        } else if constexpr (std::is_same_v<Def, WheelJointDef>) {
+          return validate_wheel_joint_def(def);
+        } else {
+          static_assert(std::is_same_v<Def, MotorJointDef>);
+          return validate_motor_joint_def(def);
+        }
+      },
+      out->def);
   if (!s.ok()) {
     std::string msg = s.message();
     if (msg.rfind("joint.", 0) == 0) msg = msg.substr(6);
@@ -905,6 +1028,50 @@ void joint_to_proto(const SceneJoint& j, v1::Joint* out) {
     p->set_max_length(d->max_length);
     p->set_hertz(d->hertz);
     p->set_damping_ratio(d->damping_ratio);
+  } else if (const auto* w = std::get_if<WeldJointDef>(&j.def)) {
+    anchors(*w);
+    v1::WeldJoint* p = out->mutable_weld();
+    p->set_reference_angle(w->reference_angle);
+    p->set_linear_hertz(w->linear_hertz);
+    p->set_linear_damping_ratio(w->linear_damping_ratio);
+    p->set_angular_hertz(w->angular_hertz);
+    p->set_angular_damping_ratio(w->angular_damping_ratio);
+  } else if (const auto* pr = std::get_if<PrismaticJointDef>(&j.def)) {
+    anchors(*pr);
+    v1::PrismaticJoint* p = out->mutable_prismatic();
+    vec_to_proto(pr->local_axis_a, p->mutable_local_axis_a());
+    p->set_reference_angle(pr->reference_angle);
+    p->set_enable_limit(pr->enable_limit);
+    p->set_lower_translation(pr->lower_translation);
+    p->set_upper_translation(pr->upper_translation);
+    p->set_enable_motor(pr->enable_motor);
+    p->set_motor_speed(pr->motor_speed);
+    p->set_max_motor_force(pr->max_motor_force);
+    p->set_enable_spring(pr->enable_spring);
+    p->set_hertz(pr->hertz);
+    p->set_damping_ratio(pr->damping_ratio);
+    p->set_target_translation(pr->target_translation);
+  } else if (const auto* h = std::get_if<WheelJointDef>(&j.def)) {
+    anchors(*h);
+    v1::WheelJoint* p = out->mutable_wheel();
+    vec_to_proto(h->local_axis_a, p->mutable_local_axis_a());
+    p->set_enable_spring(h->enable_spring);
+    p->set_hertz(h->hertz);
+    p->set_damping_ratio(h->damping_ratio);
+    p->set_enable_limit(h->enable_limit);
+    p->set_lower_translation(h->lower_translation);
+    p->set_upper_translation(h->upper_translation);
+    p->set_enable_motor(h->enable_motor);
+    p->set_motor_speed(h->motor_speed);
+    p->set_max_motor_torque(h->max_motor_torque);
+  } else if (const auto* m = std::get_if<MotorJointDef>(&j.def)) {
+    out->set_collide_connected(m->collide_connected);
+    v1::MotorJoint* p = out->mutable_motor();
+    vec_to_proto(m->linear_offset, p->mutable_linear_offset());
+    p->set_angular_offset(m->angular_offset);
+    p->set_max_force(m->max_force);
+    p->set_max_torque(m->max_torque);
+    p->set_correction_factor(m->correction_factor);
   } else {
     const auto& r = std::get<RevoluteJointDef>(j.def);
     anchors(r);

@@ -277,6 +277,13 @@ void joint_to_proto(const Joint& j, v1::SnapshotJoint* out) {
   out->set_upper_impulse(j.upper_impulse);
   out->set_motor_impulse(j.motor_impulse);
   out->set_spring_impulse(j.spring_impulse);
+  out->set_target_translation(j.target_translation);
+  out->set_correction_factor(j.correction_factor);
+  out->set_curve_type(static_cast<uint32_t>(j.curve_type));
+  for (const Vec2& p : j.curve_points) put(p, out->add_curve_points());
+  out->set_curve_radius(j.curve_radius);
+  out->set_stiffness(j.stiffness);
+  out->set_damping(j.damping);
 }
 
 Joint joint_from_proto(const v1::SnapshotJoint& p) {
@@ -319,6 +326,14 @@ Joint joint_from_proto(const v1::SnapshotJoint& p) {
   j.upper_impulse = p.upper_impulse();
   j.motor_impulse = p.motor_impulse();
   j.spring_impulse = p.spring_impulse();
+  j.target_translation = p.target_translation();
+  j.correction_factor = p.correction_factor();
+  // Out-of-range curve types are caught by World::restore's check.
+  j.curve_type = static_cast<CurveType>(std::min<uint32_t>(p.curve_type(), 255));
+  for (const v1::Vec2& v : p.curve_points()) j.curve_points.push_back(get(v));
+  j.curve_radius = p.curve_radius();
+  j.stiffness = p.stiffness();
+  j.damping = p.damping();
   return j;
 }
 

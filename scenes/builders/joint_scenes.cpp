@@ -219,6 +219,30 @@ SceneDef ragdolls() {
   return s;
 }
 
+// The benchmark table's large joint scene: 1000 ragdolls (11 000 capsules, 10 000 limited
+// revolute joints with joint friction) in 25 rows of 40, raining into a 41 m wide container.
+SceneDef ragdoll_rain() {
+  SceneDef s;
+  add_ground(&s, 22.0);
+  for (double x : {-21.0, 21.0}) {
+    SceneBody wall;
+    wall.def.position = Vec2(x, 30.0);
+    ShapeDef shape;
+    shape.geometry = make_box(0.5, 30.0);
+    shape.friction = 0.6;
+    wall.shapes.push_back(shape);
+    s.bodies.push_back(wall);
+  }
+  for (int i = 0; i < 1000; ++i) {
+    int row = i / 40, col = i % 40;
+    RagdollOptions o;
+    o.feet = Vec2(-19.75 + 1.0 * col + 0.5 * (row % 2), 1.0 + 2.0 * row);
+    o.group = -(i + 1);
+    add_ragdoll(&s, o);
+  }
+  return s;
+}
+
 SceneDef rope() {
   SceneDef s;
   add_ground(&s, 30.0);

@@ -263,6 +263,7 @@ const std::map<std::string, std::function<SceneDef()>, std::less<>>& registry() 
       {"cloth", cloth},
       {"rope", rope},
       {"ragdolls", ragdolls},
+      {"ragdoll_rain", ragdoll_rain},
       {"mixed", mixed},
       {"tumbler", tumbler},
       {"particle_pile", [] { return pile(BodyType::kParticle); }},

@@ -336,6 +336,14 @@ TEST(SceneSchema, EngineDefinitionStructsAreCovered) {
   EXPECT_EQ(sizeof(Segment), 32u);
   EXPECT_EQ(sizeof(Polygon), 288u);
   EXPECT_EQ(std::variant_size_v<Geometry>, 4u);
+  // Joints (scene.proto's Joint kinds; TargetJointDef is not scene content).
+  EXPECT_EQ(sizeof(DistanceJointDef), 96u);
+  EXPECT_EQ(sizeof(RevoluteJointDef), 144u);
+  EXPECT_EQ(sizeof(WeldJointDef), 96u);
+  EXPECT_EQ(sizeof(PrismaticJointDef), 160u);
+  EXPECT_EQ(sizeof(WheelJointDef), 144u);
+  EXPECT_EQ(sizeof(MotorJointDef), 80u);
+  EXPECT_EQ(std::variant_size_v<decltype(SceneJoint::def)>, 6u);
 }
 
 // --- Round trips -----------------------------------------------------------------------------
@@ -717,6 +725,214 @@ TEST(SceneJoints, BadJointsNameTheField) {
   ASSERT_FALSE(c.ok());
   EXPECT_NE(c.status().message().find("joints[0]: needs a kind"), std::string::npos)
       << c.status().message();
+}
+
+}  // namespace
+}  // namespace fulcrum
+
+namespace fulcrum {
+namespace {
+
+bool same_bits(double a, double b) {
+  return std::bit_cast<uint64_t>(a) == std::bit_cast<uint64_t>(b);
+}
+bool same_bits(const Vec2& a, const Vec2& b) {
+  return same_bits(a.x(), b.x()) && same_bits(a.y(), b.y());
+}
+bool same_bits(bool a, bool b) {
+  return a == b;
+}
+
+#define SAME(field) EXPECT_TRUE(same_bits(a.field, b.field)) << where << "." #field
+
+void expect_same(const WeldJointDef& a, const WeldJointDef& b, const std::string& where) {
+  SAME(local_anchor_a);
+  SAME(local_anchor_b);
+  SAME(reference_angle);
+  SAME(linear_hertz);
+  SAME(linear_damping_ratio);
+  SAME(angular_hertz);
+  SAME(angular_damping_ratio);
+  SAME(collide_connected);
+}
+void expect_same(const PrismaticJointDef& a, const PrismaticJointDef& b, const std::string& where) {
+  SAME(local_anchor_a);
+  SAME(local_anchor_b);
+  SAME(local_axis_a);
+  SAME(reference_angle);
+  SAME(enable_limit);
+  SAME(lower_translation);
+  SAME(upper_translation);
+  SAME(enable_motor);
+  SAME(motor_speed);
+  SAME(max_motor_force);
+  SAME(enable_spring);
+  SAME(hertz);
+  SAME(damping_ratio);
+  SAME(target_translation);
+  SAME(collide_connected);
+}
+void expect_same(const WheelJointDef& a, const WheelJointDef& b, const std::string& where) {
+  SAME(local_anchor_a);
+  SAME(local_anchor_b);
+  SAME(local_axis_a);
+  SAME(enable_spring);
+  SAME(hertz);
+  SAME(damping_ratio);
+  SAME(enable_limit);
+  SAME(lower_translation);
+  SAME(upper_translation);
+  SAME(enable_motor);
+  SAME(motor_speed);
+  SAME(max_motor_torque);
+  SAME(collide_connected);
+}
+void expect_same(const MotorJointDef& a, const MotorJointDef& b, const std::string& where) {
+  SAME(linear_offset);
+  SAME(angular_offset);
+  SAME(max_force);
+  SAME(max_torque);
+  SAME(correction_factor);
+  SAME(collide_connected);
+}
+template <typename Def>
+void expect_same(const Def&, const Def&, const std::string&) {}  // distance, revolute: above
+
+#undef SAME
+
+// Weld, prismatic, wheel and motor joints with every field off its default go through JSON
+// and back bit for bit, and the two scenes simulate to the same state hash.
+TEST(SceneJoints, EveryJointKindRoundTrips) {
+  SceneDef scene;
+  scene.bodies.push_back(SceneBody{});  // static ground
+  for (int i = 0; i < 5; ++i) {
+    SceneBody body;
+    body.def.type = BodyType::kDynamic;
+    body.def.position = Vec2(1.0 + i, 2.0);
+    ShapeDef shape;
+    shape.geometry = make_box(0.2, 0.1);
+    body.shapes.push_back(shape);
+    scene.bodies.push_back(body);
+  }
+  WeldJointDef weld;
+  weld.local_anchor_a = Vec2(1.0 / 3.0, -0.25);
+  weld.local_anchor_b = Vec2(-0.1, 0.7);
+  weld.reference_angle = 0.1;
+  weld.linear_hertz = 7.0;
+  weld.linear_damping_ratio = 0.3;
+  weld.angular_hertz = 9.5;
+  weld.angular_damping_ratio = 1.1;
+  weld.collide_connected = true;
+  scene.joints.push_back(SceneJoint{0, 1, weld});
+  PrismaticJointDef prismatic;
+  prismatic.local_anchor_a = Vec2(2.0, 2.0);
+  prismatic.local_axis_a = Vec2(0.6, 0.8);
+  prismatic.reference_angle = -0.2;
+  prismatic.enable_limit = true;
+  prismatic.lower_translation = -0.5;
+  prismatic.upper_translation = 0.75;
+  prismatic.enable_motor = true;
+  prismatic.motor_speed = 0.1;
+  prismatic.max_motor_force = 3.0;
+  prismatic.enable_spring = true;
+  prismatic.hertz = 2.0;
+  prismatic.damping_ratio = 0.4;
+  prismatic.target_translation = 0.2;
+  scene.joints.push_back(SceneJoint{0, 2, prismatic});
+  WheelJointDef wheel;
+  wheel.local_anchor_a = Vec2(1.0, -0.3);
+  wheel.local_axis_a = Vec2(0.0, 2.0);  // normalized by the engine, kept as written here
+  wheel.enable_spring = false;
+  wheel.hertz = 3.0;
+  wheel.damping_ratio = 0.0;
+  wheel.enable_limit = true;
+  wheel.lower_translation = -0.1;
+  wheel.upper_translation = 0.1;
+  wheel.enable_motor = true;
+  wheel.motor_speed = -4.0;
+  wheel.max_motor_torque = 12.0;
+  wheel.collide_connected = true;
+  scene.joints.push_back(SceneJoint{2, 3, wheel});
+  MotorJointDef motor;
+  motor.linear_offset = Vec2(4.0, 2.5);
+  motor.angular_offset = 0.3;
+  motor.max_force = 40.0;
+  motor.max_torque = 0.0;
+  motor.correction_factor = 1.0;
+  scene.joints.push_back(SceneJoint{0, 4, motor});
+  WheelJointDef wheel_defaults;  // defaults that differ from proto3's zero defaults
+  scene.joints.push_back(SceneJoint{1, 5, wheel_defaults});
+
+  const std::string json = scene_to_json(scene);
+  Result<SceneDef> back = parse_scene_json(json);
+  ASSERT_TRUE(back.ok()) << back.status().to_string() << "\n" << json;
+  ASSERT_EQ(back->joints.size(), scene.joints.size());
+  for (size_t i = 0; i < scene.joints.size(); ++i) {
+    const SceneJoint& a = scene.joints[i];
+    const SceneJoint& b = back->joints[i];
+    std::string where = "joints[" + std::to_string(i) + "]";
+    EXPECT_EQ(a.body_a, b.body_a) << where;
+    EXPECT_EQ(a.body_b, b.body_b) << where;
+    ASSERT_EQ(a.def.index(), b.def.index()) << where;
+    std::visit(
+        [&](const auto& da) {
+          expect_same(da, std::get<std::decay_t<decltype(da)>>(b.def), where);
+        },
+        a.def);
+  }
+  // Absent optional fields read back as the engine defaults, not proto3's zeros.
+  Result<SceneDef> sparse = parse_scene_json(R"({"bodies": [{}, {"type": "BODY_TYPE_DYNAMIC"}],
+      "joints": [{"bodyA": 0, "bodyB": 1, "wheel": {}}, {"bodyA": 0, "bodyB": 1, "motor": {}}]})");
+  ASSERT_TRUE(sparse.ok()) << sparse.status().to_string();
+  const auto& w = std::get<WheelJointDef>(sparse->joints[0].def);
+  expect_same(w, WheelJointDef{}, "sparse wheel");
+  const auto& m = std::get<MotorJointDef>(sparse->joints[1].def);
+  expect_same(m, MotorJointDef{}, "sparse motor");
+
+  Result<World> original = build_world(scene);
+  Result<World> again = build_world(*back);
+  ASSERT_TRUE(original.ok()) << original.status().to_string();
+  ASSERT_TRUE(again.ok()) << again.status().to_string();
+  for (int i = 0; i < 60; ++i) {
+    original->step();
+    again->step();
+  }
+  EXPECT_EQ(original->state_hash(), again->state_hash());
+}
+
+TEST(SceneJoints, BadNewJointsNameTheField) {
+  auto error = [](const std::string& joint) {
+    std::string json =
+        R"({"bodies": [{}, {"type": "BODY_TYPE_DYNAMIC"}], "joints": [)" + joint + "]}";
+    Result<SceneDef> s = parse_scene_json(json);
+    EXPECT_FALSE(s.ok()) << joint;
+    return s.ok() ? std::string() : s.status().message();
+  };
+  EXPECT_NE(error(R"({"bodyA": 0, "bodyB": 1, "weld": {"linearHertz": -1}})")
+                .find("joints[0].weld.linear_hertz"),
+            std::string::npos);
+  EXPECT_NE(error(R"({"bodyA": 0, "bodyB": 1, "prismatic": {"localAxisA": {"x": 0, "y": 0}}})")
+                .find("joints[0].local_axis_a"),
+            std::string::npos);
+  EXPECT_NE(error(R"({"bodyA": 0, "bodyB": 1, "prismatic": {"lowerTranslation": 1,
+                "upperTranslation": 0}})")
+                .find("joints[0].lower_translation"),
+            std::string::npos);
+  EXPECT_NE(error(R"({"bodyA": 0, "bodyB": 1, "wheel": {"maxMotorTorque": -2}})")
+                .find("joints[0].wheel.max_motor_torque"),
+            std::string::npos);
+  EXPECT_NE(
+      error(R"({"bodyA": 0, "bodyB": 1, "wheel": {"hertz": -2}})").find("joints[0].wheel.hertz"),
+      std::string::npos);
+  EXPECT_NE(error(R"({"bodyA": 0, "bodyB": 1, "motor": {"correctionFactor": 2}})")
+                .find("joints[0].motor.correction_factor"),
+            std::string::npos);
+  EXPECT_NE(error(R"({"bodyA": 0, "bodyB": 1, "motor": {"maxForce": -1}})")
+                .find("joints[0].motor.max_force"),
+            std::string::npos);
+  EXPECT_NE(error(R"({"bodyA": 0, "bodyB": 1, "localAnchorA": {"x": 1}, "motor": {}})")
+                .find("joints[0].local_anchor_a: a motor joint has no anchors"),
+            std::string::npos);
 }
 
 }  // namespace

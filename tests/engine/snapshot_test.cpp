@@ -45,6 +45,63 @@ INSTANTIATE_TEST_SUITE_P(Scenes, SnapshotRoundTrip,
                          ::testing::Values("many_pyramids", "ragdolls", "rope", "cloth", "bounce",
                                            "mixed", "vertical_stack", "bridge"));
 
+// Every joint type's records (curves with their points, springs, motor targets) survive.
+TEST(Snapshot, EveryJointTypeRoundTrips) {
+  World w;
+  BodyDef ground_def;
+  BodyId ground = *w.create_body(ground_def);
+  ShapeDef slab;
+  slab.geometry = make_box(30.0, 0.5);
+  ASSERT_TRUE(w.create_shape(ground, slab).ok());
+  auto dynamic_box = [&](double x, double y) {
+    BodyDef d;
+    d.type = BodyType::kDynamic;
+    d.position = Vec2(x, y);
+    BodyId b = *w.create_body(d);
+    ShapeDef s;
+    s.geometry = make_box(0.3, 0.3);
+    EXPECT_TRUE(w.create_shape(b, s).ok());
+    return b;
+  };
+  BodyId chassis = dynamic_box(-8.0, 3.0), wheel = dynamic_box(-8.0, 2.0);
+  WheelJointDef wheel_def;
+  wheel_def.body_a = chassis;
+  wheel_def.body_b = wheel;
+  wheel_def.local_anchor_a = Vec2(0.0, -1.0);
+  wheel_def.enable_motor = true;
+  wheel_def.motor_speed = -3.0;
+  wheel_def.max_motor_torque = 20.0;
+  ASSERT_TRUE(w.create_wheel_joint(wheel_def).ok());
+  MotorJointDef motor_def;
+  motor_def.body_a = ground;
+  motor_def.body_b = dynamic_box(-3.0, 4.0);
+  motor_def.linear_offset = Vec2(-3.0, 4.0);
+  motor_def.max_force = 500.0;
+  motor_def.max_torque = 50.0;
+  JointId motor = *w.create_motor_joint(motor_def);
+  CurveJointDef curve_def;
+  curve_def.body_a = ground;
+  curve_def.body_b = dynamic_box(4.0, 6.0);
+  curve_def.curve = CurveType::kPolyline;
+  curve_def.points = {Vec2(1.0, 8.0), Vec2(4.0, 6.0), Vec2(7.0, 8.0)};
+  ASSERT_TRUE(w.create_curve_joint(curve_def).ok());
+  SpringDef spring_def;
+  spring_def.body_a = ground;
+  spring_def.body_b = dynamic_box(10.0, 5.0);
+  spring_def.local_anchor_a = Vec2(10.0, 8.0);
+  spring_def.rest_length = 2.0;
+  spring_def.stiffness = 200.0;
+  spring_def.damping = 2.0;
+  ASSERT_TRUE(w.create_spring(spring_def).ok());
+  for (int i = 0; i < 40; ++i) {
+    ASSERT_TRUE(w.set_motor_joint_targets(motor, Vec2(-3.0 + 0.02 * i, 4.0), 0.01 * i).ok());
+    w.step();
+  }
+  World copy;
+  ASSERT_TRUE(copy.restore(w.snapshot()).ok());
+  EXPECT_EQ(first_divergence(w, copy, 200), -1);
+}
+
 // Rollback: save at T, step to T + k, restore T, step again: every tick's hash repeats.
 TEST(Snapshot, RollbackRepeatsEveryTick) {
   World w = build("ragdolls");

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <vector>
 
 #include "fulcrum/math.h"
 #include "fulcrum/types.h"
@@ -22,7 +23,11 @@ enum class JointType : uint8_t {
   kRevolute = 1,
   kWeld = 2,
   kTarget = 3,
-  kPrismatic = 4
+  kPrismatic = 4,
+  kWheel = 5,
+  kMotor = 6,
+  kCurve = 7,
+  kSpring = 8  // a force element, not a constraint (SpringDef)
 };
 const char* joint_type_name(JointType type);
 
@@ -78,9 +83,89 @@ struct PrismaticJointDef {
   double lower_translation = 0.0;  // m, <= upper_translation
   double upper_translation = 0.0;  // m
   bool enable_motor = false;
-  double motor_speed = 0.0;      // m/s along the axis
-  double max_motor_force = 0.0;  // N, >= 0
+  double motor_speed = 0.0;         // m/s along the axis
+  double max_motor_force = 0.0;     // N, >= 0
+  bool enable_spring = false;       // a spring along the axis toward target_translation
+  double hertz = 0.0;               // spring frequency, Hz, >= 0 (0: no spring)
+  double damping_ratio = 0.0;       // >= 0
+  double target_translation = 0.0;  // spring rest translation, m
   bool collide_connected = false;
+};
+
+// A wheel on a suspension: body B's anchor stays on a line through body A's anchor along
+// local_axis_a (the talk's line constraint) while B turns freely. Along the axis a spring
+// (the suspension) pulls toward translation 0, optionally within translation limits; a
+// velocity motor with a torque limit drives B's rotation relative to A.
+struct WheelJointDef {
+  BodyId body_a;                       // the chassis
+  BodyId body_b;                       // the wheel
+  Vec2 local_anchor_a = Vec2::Zero();  // in body A's frame, m
+  Vec2 local_anchor_b = Vec2::Zero();  // in body B's frame, m (usually its centre)
+  Vec2 local_axis_a = Vec2(0.0, 1.0);  // suspension axis in body A's frame, != 0
+  bool enable_spring = true;
+  double hertz = 1.0;          // suspension frequency, Hz, >= 0 (0: no spring)
+  double damping_ratio = 0.7;  // >= 0
+  bool enable_limit = false;
+  double lower_translation = 0.0;  // m, <= upper_translation
+  double upper_translation = 0.0;  // m
+  bool enable_motor = false;
+  double motor_speed = 0.0;       // target angular velocity of B relative to A, rad/s
+  double max_motor_torque = 0.0;  // N m, >= 0
+  bool collide_connected = false;
+};
+
+// Drives body B's origin and angle toward a pose relative to body A (a position motor on
+// three rows: C = relative pose - offset(t)), never with more than max_force and max_torque.
+// The offsets may change every tick (World::set_motor_joint_targets): for animated bodies
+// that still push and get pushed by the rest of the world.
+struct MotorJointDef {
+  BodyId body_a;
+  BodyId body_b;
+  Vec2 linear_offset = Vec2::Zero();  // B's origin in body A's frame, m
+  double angular_offset = 0.0;        // angle_b - angle_a, rad
+  double max_force = 1.0;             // N, >= 0
+  double max_torque = 1.0;            // N m, >= 0
+  double correction_factor = 0.3;     // [0, 1]: fraction of the pose error removed per substep
+  bool collide_connected = false;
+};
+
+// A curve fixed in the world for a CurveJointDef.
+enum class CurveType : uint8_t {
+  kLine = 0,     // through `point` along `direction` (unbounded)
+  kCircle = 1,   // centre `point`, `radius`
+  kPolyline = 2  // through `points` in order (open)
+};
+
+// A bead on a wire (the talk's first example): a point of body B stays on a curve fixed in the
+// world, free to slide along it and to turn, without friction. One row along the curve normal
+// n at the closest point: C = n . (p - closest), J = n^T [I, rb x]. body_a is any static body
+// (it takes no reaction).
+struct CurveJointDef {
+  BodyId body_a;
+  BodyId body_b;
+  Vec2 local_anchor_b = Vec2::Zero();  // the bead, in body B's frame, m
+  CurveType curve = CurveType::kLine;
+  Vec2 point = Vec2::Zero();        // line: a point on it; circle: the centre (world, m)
+  Vec2 direction = Vec2(1.0, 0.0);  // line: its direction (normalized), != 0
+  double radius = 1.0;              // circle: m, > 0
+  std::vector<Vec2> points;         // polyline: >= 2 world points, consecutive ones apart
+};
+
+// A spring between two body points, applied as a force (not a constraint) when velocities are
+// integrated, before the constraints are solved:
+//   F on B = -(stiffness (|d| - rest_length) + damping (d/|d| . relative velocity)) d/|d|,
+// and -F on A, with d = anchor B - anchor A. Explicit, so stable while
+// h sqrt(stiffness / m) < 2 for the substep h and the lighter mass m. It joins islands and
+// breaks and is destroyed with its bodies like a joint (it has a JointId).
+struct SpringDef {
+  BodyId body_a;
+  BodyId body_b;
+  Vec2 local_anchor_a = Vec2::Zero();  // in body A's frame, m
+  Vec2 local_anchor_b = Vec2::Zero();  // in body B's frame, m
+  double rest_length = 1.0;            // m, >= 0
+  double stiffness = 0.0;              // N/m, >= 0
+  double damping = 0.0;                // N s/m, >= 0
+  bool collide_connected = true;       // a force element does not stop contact
 };
 
 // Glues two bodies together: the point constraint plus an angle row (C = angle_b - angle_a -
@@ -121,13 +206,17 @@ struct JointState {
   Vec2 anchor_b = Vec2::Zero();
   Vec2 reaction_force = Vec2::Zero();  // on body B over the last tick, N
   double reaction_torque = 0.0;        // on body B over the last tick, N m
-  double motor_torque = 0.0;           // revolute: last tick's motor torque, N m (prismatic:
-                                       // its motor force, N)
-  double length = 0.0;                 // distance between the anchors, m
-  double angle = 0.0;                  // revolute: joint angle, rad
+  double motor_torque = 0.0;           // revolute, wheel: last tick's motor torque, N m
+                                       // (prismatic: its motor force, N)
+  double length = 0.0;                 // distance between the anchors, m (prismatic,
+                                       // wheel: translation along the axis)
+  double angle = 0.0;                  // revolute, wheel: joint angle, rad
   double linear_error = 0.0;           // m: anchor separation (revolute) or how far the
-                                       // length is outside [min, max] (distance)
+                                       // length is outside [min, max] (distance); wheel:
+                                       // off the line; motor: from the target; curve: off
+                                       // the curve; spring: 0 (a force, nothing to violate)
   double angular_error = 0.0;          // rad: how far the angle is outside the limits
+                                       // (motor: from the target)
 };
 
 // Every joint can break: when the force it applies exceeds break_force (N) or the torque
@@ -140,5 +229,9 @@ Status validate_weld_joint_def(const WeldJointDef& def);
 Status validate_target_joint_def(const TargetJointDef& def);
 Status validate_prismatic_joint_def(const PrismaticJointDef& def);
 Status validate_revolute_joint_def(const RevoluteJointDef& def);
+Status validate_wheel_joint_def(const WheelJointDef& def);
+Status validate_motor_joint_def(const MotorJointDef& def);
+Status validate_curve_joint_def(const CurveJointDef& def);
+Status validate_spring_def(const SpringDef& def);
 
 }  // namespace fulcrum

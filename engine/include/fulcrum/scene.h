@@ -24,7 +24,9 @@ struct SceneBody {
 struct SceneJoint {
   int body_a = 0;
   int body_b = 0;
-  std::variant<DistanceJointDef, RevoluteJointDef> def;
+  std::variant<DistanceJointDef, RevoluteJointDef, WeldJointDef, PrismaticJointDef, WheelJointDef,
+               MotorJointDef>
+      def;
 };
 
 struct SceneDef {
@@ -36,5 +38,10 @@ struct SceneDef {
 // Validates the whole scene first (messages name the place: "bodies[3].shapes[0].density"),
 // then builds it. Bodies are created in order, so bodies[i] gets index i.
 Result<World> build_world(const SceneDef& scene);
+
+// Creates the joint's definition between two bodies of a world (its body_a and body_b indices
+// are not used).
+Result<JointId> create_scene_joint(World& world, const SceneJoint& joint, BodyId body_a,
+                                   BodyId body_b);
 
 }  // namespace fulcrum

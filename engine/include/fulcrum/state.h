@@ -104,19 +104,36 @@ struct Joint {
   double hertz = 0.0, damping_ratio = 0.0;
   // Weld: the angular part's spring.
   double angular_hertz = 0.0, angular_damping_ratio = 0.0;
-  // Prismatic joints (limits, motor speed and motor impulse share the fields above).
+  // Prismatic and wheel joints: the axis in body A's frame; translation limits are kept in
+  // lower_angle / upper_angle, and the spring (hertz, damping_ratio) pulls toward
+  // target_translation (wheel: 0). Wheel: the motor turns B (motor_speed, max_motor_torque).
   Vec2 local_axis = Vec2(1.0, 0.0);
   double max_motor_force = 0.0;
-  // Target joints.
+  double target_translation = 0.0;
+  // Target joints; motor joints: max_force and max_motor_torque cap the linear and angular
+  // rows, local_a holds the linear offset (local_b is B's origin) and reference_angle the
+  // angular offset, both changed by World::set_motor_joint_targets.
   Vec2 target = Vec2::Zero();
   double max_force = 0.0;
+  double correction_factor = 0.0;  // motor joints
+  // Curve joints: the curve in world coordinates. Line: curve_points = {point, unit
+  // direction}; circle: {centre} and curve_radius; polyline: its vertices.
+  CurveType curve_type = CurveType::kLine;
+  std::vector<Vec2> curve_points;
+  double curve_radius = 0.0;
+  // Springs (force elements): rest length in `length`.
+  double stiffness = 0.0, damping = 0.0;
   double break_force = std::numeric_limits<double>::infinity();
   double break_torque = std::numeric_limits<double>::infinity();
   // Accumulated impulses, per substep (warm starting carries them across ticks).
-  Vec2 linear_impulse = Vec2::Zero();  // revolute point rows
-  double axial_impulse = 0.0;          // distance: rigid row or spring
+  Vec2 linear_impulse = Vec2::Zero();  // revolute, weld, motor: point rows; prismatic: line
+                                       // and angle rows; wheel: line row (x)
+  double axial_impulse = 0.0;          // distance: rigid row; weld, motor: angle row;
+                                       // curve: the normal row
   double lower_impulse = 0.0, upper_impulse = 0.0;
-  double motor_impulse = 0.0, spring_impulse = 0.0;
+  double motor_impulse = 0.0;
+  double spring_impulse = 0.0;  // springs of joints; spring force elements: the impulse of
+                                // the last substep along anchor A -> anchor B
 };
 
 // A contact sits in two intrusive doubly linked lists, one per body. Edge key = 2 * contact

@@ -140,12 +140,20 @@ class World {
   Result<JointId> create_weld_joint(const WeldJointDef& def);
   Result<JointId> create_target_joint(const TargetJointDef& def);
   Result<JointId> create_prismatic_joint(const PrismaticJointDef& def);
+  Result<JointId> create_wheel_joint(const WheelJointDef& def);
+  Result<JointId> create_motor_joint(const MotorJointDef& def);
+  Result<JointId> create_curve_joint(const CurveJointDef& def);
+  // A spring force element (SpringDef); a JointId of type kSpring.
+  Result<JointId> create_spring(const SpringDef& def);
   Status set_joint_target(JointId id, const Vec2& target);
+  // A motor joint's new offsets (MotorJointDef), from the next tick on.
+  Status set_motor_joint_targets(JointId id, const Vec2& linear_offset, double angular_offset);
   // Force (N) and torque (N m) above which the joint breaks; infinity: never. Both >= 0.
   Status set_joint_break_limits(JointId id, double force, double torque);
   Status destroy_joint(JointId id);
   bool is_valid(JointId id) const;
   Result<JointState> joint_state(JointId id) const;
+  // Revolute, prismatic and wheel joints.
   Status set_motor_speed(JointId id, double speed);
 
   // --- Simulation ----------------------------------------------------------------------------
