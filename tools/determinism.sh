@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Determinism across builds: the same scenes, stepped by a gcc -O0 build and a clang -O2 build of
-# the `fulcrum` CLI, must end with the same state hash as the main build (gcc -O2). Run by
+# the `fulcrum` CLI, must end with the same state hash as the main build (gcc -O2); and the
+# golden scenarios (tests/golden: edits between ticks, sleeping, every joint type) must give the
+# main build's fulcrum_golden output line for line, i.e. the same hash at every tick. Run by
 # tools/test.sh after the test suite; builds land in build-det-gcc-O0/ and build-det-clang-O2/.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
@@ -19,11 +21,18 @@ SCENES=(
 build_variant() {  # name, then extra cmake arguments
   local dir="$FULCRUM_ROOT/build-det-$1"
   shift
-  if [ ! -f "$dir/build.ninja" ]; then
-    cmake -S "$FULCRUM_ROOT" -B "$dir" -G Ninja -DFULCRUM_BUILD_TESTS=OFF \
+  # Tests on: fulcrum_golden lives in tests/golden (only the two targets below are built). A
+  # directory configured before that (tests off) is reconfigured once.
+  if [ ! -f "$dir/build.ninja" ] || grep -q '^FULCRUM_BUILD_TESTS:BOOL=OFF' "$dir/CMakeCache.txt"; then
+    cmake -S "$FULCRUM_ROOT" -B "$dir" -G Ninja -DFULCRUM_BUILD_TESTS=ON \
       -DFULCRUM_BUILD_BENCH=OFF "$@" > /dev/null
   fi
-  cmake --build "$dir" -j "$(nproc)" --target fulcrum > /dev/null
+  local output
+  output=$(cmake --build "$dir" -j "$(nproc)" --target fulcrum fulcrum_golden 2>&1) || {
+    echo "$output" | tail -40
+    echo "determinism: building the $(basename "$dir") variant failed"
+    return 1
+  }
 }
 
 build_variant gcc-O0 -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_COMPILER=g++
@@ -44,6 +53,26 @@ for scene in "${SCENES[@]}"; do
       failed=$((failed + 1))
     fi
   done
+done
+
+# The golden scenarios: every line (name ticks final_hash combined_hash) must match.
+golden_reference=$("$FULCRUM_BUILD/bin/fulcrum_golden")
+for variant in gcc-O0 clang-O2; do
+  golden_bin="$FULCRUM_ROOT/build-det-$variant/bin/fulcrum_golden"
+  got=$("$golden_bin") || got=""
+  while read -r name ticks final combined; do
+    line=$(grep "^$name " <<< "$got" || true)
+    if [ "$line" = "$name $ticks $final $combined" ]; then
+      passed=$((passed + 1))
+      continue
+    fi
+    failed=$((failed + 1))
+    echo "determinism: $variant differs on golden scenario '$name': got '${line:-no line}'," \
+      "gcc -O2 gives '$name $ticks $final $combined'"
+    first=$(diff <("$FULCRUM_BUILD/bin/fulcrum_golden" --per-tick "$name") \
+      <("$golden_bin" --per-tick "$name") | grep -m1 '^<' || true)
+    [ -z "$first" ] || echo "determinism:   first differing tick: $(cut -d' ' -f3 <<< "$first") of $ticks"
+  done <<< "$golden_reference"
 done
 echo "determinism: $passed passed, $failed failed"
 [ "$failed" -eq 0 ]

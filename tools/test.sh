@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The whole test suite: install what is missing, check formatting, build with warnings as
 # errors, run every test through ctest in parallel, then check that gcc -O0 and clang -O2
-# builds step scenes to the same state hashes as the main build.
+# builds step scenes to the same state hashes as the main build, and that an aarch64 build
+# (Debian's cross compiler, run under qemu-user) gives the golden hashes at every tick.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 fulcrum_install_packages
@@ -9,3 +10,4 @@ fulcrum_check_format
 fulcrum_build
 (cd "$FULCRUM_BUILD" && ctest --output-on-failure -j "$(nproc)" --timeout 900)
 bash "$FULCRUM_ROOT/tools/determinism.sh"
+bash "$FULCRUM_ROOT/tools/cross_aarch64.sh"

@@ -1,0 +1,57 @@
+// Prints one line per golden scenario:
+//   name ticks final_hash combined_hash
+// with both hashes as 16 hex digits; combined_hash covers every tick's hash, so a difference
+// at any tick shows. tools/determinism.sh and tools/cross_aarch64.sh compare this output
+// between builds; golden_test.cpp pins it.
+//
+// Usage: fulcrum_golden [--per-tick] [scenario...]
+//   no scenario names: every scenario, in order
+//   --per-tick: one line "name tick hash" per tick instead (tick = World::tick() after the
+//               step, from 1), for finding the first tick at which two builds differ
+#include <cinttypes>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "golden_scenes.h"
+
+int main(int argc, char** argv) {
+  using fulcrum::golden::GoldenScenario;
+  bool per_tick = false;
+  std::vector<std::string> wanted;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--per-tick") == 0) {
+      per_tick = true;
+    } else {
+      wanted.emplace_back(argv[i]);
+    }
+  }
+  size_t printed = 0;
+  for (const GoldenScenario& scenario : fulcrum::golden::golden_scenarios()) {
+    bool selected = wanted.empty();
+    for (const std::string& name : wanted) selected = selected || name == scenario.name;
+    if (!selected) continue;
+    std::vector<uint64_t> hashes = fulcrum::golden::run_golden(scenario);
+    if (per_tick) {
+      for (size_t t = 0; t < hashes.size(); ++t) {
+        std::printf("%s %zu %016" PRIx64 "\n", scenario.name, t + 1, hashes[t]);
+      }
+    } else {
+      std::printf("%s %d %016" PRIx64 " %016" PRIx64 "\n", scenario.name, scenario.ticks,
+                  hashes.empty() ? uint64_t{0} : hashes.back(),
+                  fulcrum::golden::combine_hashes(hashes));
+    }
+    std::fflush(stdout);
+    ++printed;
+  }
+  if (printed == 0 || printed < wanted.size()) {
+    std::fprintf(stderr, "fulcrum_golden: unknown scenario name; known:");
+    for (const GoldenScenario& s : fulcrum::golden::golden_scenarios()) {
+      std::fprintf(stderr, " %s", s.name);
+    }
+    std::fprintf(stderr, "\n");
+    return 1;
+  }
+  return 0;
+}

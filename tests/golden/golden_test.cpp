@@ -1,0 +1,153 @@
+// Pinned golden state hashes: the final state hash and a hash over every tick's state hash of
+// each golden scenario (golden_scenes.h), as literals. Any change to any bit the simulation
+// produces, at any tick of any scenario, fails this test.
+//
+// Changing the engine's behaviour ON PURPOSE (a solver change, a new field in the state hash,
+// a changed scenario) means updating the literals below: build, run
+//   build/bin/fulcrum_golden
+// and copy each line's two hashes into kPinned (the line is "name ticks final combined"). Say
+// in the commit message why the hashes changed. Changing them by accident (a refactor that
+// should not alter results) is exactly what this test exists to catch: find the cause instead.
+#include <gtest/gtest.h>
+
+#include <cinttypes>
+#include <cstdio>
+#include <ostream>
+#include <string>
+
+#include "golden_scenes.h"
+
+namespace fulcrum::golden {
+namespace {
+
+struct Pinned {
+  const char* name;
+  int ticks;
+  uint64_t final_hash;
+  uint64_t combined_hash;
+};
+
+// clang-format off
+constexpr Pinned kPinned[] = {
+    {"pyramid",    240, 0xa397655123f1cc9bull, 0x1f64a7588914d9dcull},
+    {"ragdolls",   240, 0x7c5964308419eb9eull, 0x82d1a2725f6dc5a7ull},
+    {"rope_cloth", 240, 0xeb120b8a0ba762a6ull, 0x50a584dbd2b0a6aeull},
+    {"sleep_wake", 480, 0x15c61895081ceeabull, 0x45fddc637a333cb9ull},
+    {"edits",      480, 0x9b3027f5517d9f5bull, 0x2034b63e2fdfc203ull},
+    {"joints",     360, 0x0b51fab67067cb66ull, 0x826464c38da7e3b6ull},
+};
+// clang-format on
+
+// gtest prints a failing parameter with this (rather than its bytes).
+void PrintTo(const Pinned& pinned, std::ostream* os) {
+  *os << pinned.name;
+}
+
+std::string hex(uint64_t x) {
+  char text[19];
+  std::snprintf(text, sizeof(text), "0x%016" PRIx64, x);
+  return text;
+}
+
+const GoldenScenario& scenario_named(const std::string& name) {
+  for (const GoldenScenario& s : golden_scenarios()) {
+    if (name == s.name) return s;
+  }
+  ADD_FAILURE() << "no golden scenario named " << name;
+  return golden_scenarios().front();
+}
+
+TEST(GoldenTest, EveryScenarioIsPinned) {
+  ASSERT_EQ(std::size(kPinned), golden_scenarios().size());
+  for (size_t i = 0; i < std::size(kPinned); ++i) {
+    EXPECT_STREQ(kPinned[i].name, golden_scenarios()[i].name);
+    EXPECT_EQ(kPinned[i].ticks, golden_scenarios()[i].ticks) << kPinned[i].name;
+  }
+}
+
+class GoldenHashTest : public testing::TestWithParam<Pinned> {};
+
+TEST_P(GoldenHashTest, MatchesPinnedHashes) {
+  const Pinned& pinned = GetParam();
+  const GoldenScenario& scenario = scenario_named(pinned.name);
+  std::vector<uint64_t> hashes = run_golden(scenario);
+  ASSERT_EQ(hashes.size(), static_cast<size_t>(pinned.ticks));
+  // The message gives the line to paste into kPinned when the change is intended.
+  EXPECT_EQ(hex(hashes.back()), hex(pinned.final_hash))
+      << pinned.name << ": now {\"" << pinned.name << "\", " << pinned.ticks << ", "
+      << hex(hashes.back()) << "ull, " << hex(combine_hashes(hashes)) << "ull}";
+  EXPECT_EQ(hex(combine_hashes(hashes)), hex(pinned.combined_hash)) << pinned.name;
+}
+
+// Two runs in one process agree at every tick (no state leaks between worlds).
+TEST_P(GoldenHashTest, RepeatsWithinAProcess) {
+  const GoldenScenario& scenario = scenario_named(GetParam().name);
+  EXPECT_EQ(run_golden(scenario), run_golden(scenario)) << scenario.name;
+}
+
+std::string scenario_name(const testing::TestParamInfo<Pinned>& param) {
+  return param.param.name;
+}
+INSTANTIATE_TEST_SUITE_P(Scenarios, GoldenHashTest, testing::ValuesIn(kPinned), scenario_name);
+
+// The scenarios cover what they say they cover.
+
+bool asleep(const World& world, uint64_t first_tag, int count) {
+  bool all = true;
+  for (BodyId id : world.bodies()) {
+    BodyState state = *world.body_state(id);
+    if (state.user_data >= first_tag && state.user_data < first_tag + count) {
+      all = all && !state.awake;
+    }
+  }
+  return all;
+}
+
+bool any_awake(const World& world, uint64_t first_tag, int count) {
+  bool any = false;
+  for (BodyId id : world.bodies()) {
+    BodyState state = *world.body_state(id);
+    if (state.user_data >= first_tag && state.user_data < first_tag + count) {
+      any = any || state.awake;
+    }
+  }
+  return any;
+}
+
+TEST(GoldenTest, SleepWakeSleepsThenWakes) {
+  const GoldenScenario& scenario = scenario_named("sleep_wake");
+  World world = scenario.build();
+  auto step_to = [&](int64_t tick) {
+    while (world.tick() < tick) {
+      scenario.edits(world, world.tick());
+      world.step();
+    }
+  };
+  step_to(kSleepWakeDropTick);
+  EXPECT_TRUE(asleep(world, kTagStack, kStackBoxes))
+      << "the stack should be asleep when the ball is dropped";
+  EXPECT_TRUE(asleep(world, kTagPyramid, kPyramidBoxes)) << "the pyramid should be asleep";
+  step_to(kSleepWakeDropTick + 30);
+  EXPECT_TRUE(any_awake(world, kTagStack, kStackBoxes)) << "the ball should have woken the stack";
+  EXPECT_TRUE(asleep(world, kTagPyramid, kPyramidBoxes)) << "the ball should not reach the pyramid";
+  step_to(kSleepWakeImpulseTick);
+  EXPECT_TRUE(asleep(world, kTagPyramid, kPyramidBoxes)) << "the pyramid should still be asleep";
+  step_to(kSleepWakeImpulseTick + 1);
+  EXPECT_TRUE(any_awake(world, kTagPyramid, kPyramidBoxes))
+      << "the impulse should have woken the pyramid";
+}
+
+TEST(GoldenTest, JointsBridgeBreaks) {
+  const GoldenScenario& scenario = scenario_named("joints");
+  World world = scenario.build();
+  int broken = 0;
+  for (int i = 0; i < scenario.ticks; ++i) {
+    scenario.edits(world, world.tick());
+    world.step();
+    broken += static_cast<int>(world.events().joints_broken.size());
+  }
+  EXPECT_EQ(broken, 1) << "the bridge's middle joint should break under the boxes";
+}
+
+}  // namespace
+}  // namespace fulcrum::golden

@@ -1,0 +1,100 @@
+#!/usr/bin/env bash
+# Determinism across CPUs: builds the golden scenarios (tests/golden) for aarch64 with Debian's
+# cross compiler, runs them under qemu-user and compares every line of their output with the
+# native build's fulcrum_golden. Prints PASS or FAIL and exits non-zero on FAIL.
+#
+# Installs g++-aarch64-linux-gnu and qemu-user when missing (through sudo when not root). The
+# cross build (only engine/, scenes/ and tests/golden/, through tools/cross/CMakeLists.txt: no
+# protobuf or gRPC, which cannot be installed for a foreign architecture) lands in
+# build-cross-aarch64/; the native reference is $FULCRUM_BUILD/bin/fulcrum_golden (build/ by
+# default), built here when missing or out of date. FULCRUM_JOBS sets the build parallelism.
+set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
+
+CROSS_BUILD="${FULCRUM_CROSS_BUILD:-$FULCRUM_ROOT/build-cross-aarch64}"
+JOBS="${FULCRUM_JOBS:-$(nproc)}"
+SYSROOT=/usr/aarch64-linux-gnu
+started=$SECONDS
+
+fail() {
+  echo "cross-aarch64: FAIL: $*"
+  exit 1
+}
+
+# Runs a command silently; on failure shows its output and fails.
+quiet() {
+  local output
+  output=$("$@" 2>&1) || {
+    echo "$output" | tail -40
+    fail "command failed: $*"
+  }
+}
+
+# --- Packages: the native ones (for the reference build), then the cross ones ----------------
+fulcrum_install_packages
+FULCRUM_PACKAGES=(g++-aarch64-linux-gnu qemu-user)
+fulcrum_install_packages
+installed=$SECONDS
+
+# --- Native reference ------------------------------------------------------------------------
+if [ ! -f "$FULCRUM_BUILD/build.ninja" ]; then
+  quiet cmake -S "$FULCRUM_ROOT" -B "$FULCRUM_BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+    -DFULCRUM_WERROR=ON
+fi
+quiet cmake --build "$FULCRUM_BUILD" -j "$JOBS" --target fulcrum_golden
+
+# --- Cross build -----------------------------------------------------------------------------
+if [ ! -f "$CROSS_BUILD/build.ninja" ]; then
+  quiet cmake -S "$FULCRUM_ROOT/tools/cross" -B "$CROSS_BUILD" -G Ninja \
+    -DCMAKE_BUILD_TYPE=Release -DFULCRUM_WERROR=ON \
+    -DCMAKE_TOOLCHAIN_FILE="$FULCRUM_ROOT/tools/toolchain-aarch64.cmake"
+fi
+quiet cmake --build "$CROSS_BUILD" -j "$JOBS" --target fulcrum_golden
+built=$SECONDS
+
+# The determinism flags must reach every translation unit (they are PUBLIC on fulcrum_engine),
+# and no fused multiply-add may be left in the code: aarch64 gcc contracts a * b + c into one
+# fmadd (rounded once instead of twice) by default, even with -std=c++20.
+commands="$CROSS_BUILD/compile_commands.json"
+compiled=$(grep -c '"command"' "$commands")
+without=$(grep '"command"' "$commands" | grep -vc -- '-ffp-contract=off' || true)
+[ "$compiled" -gt 0 ] && [ "$without" -eq 0 ] ||
+  fail "$without of $compiled translation units compiled without -ffp-contract=off"
+fused=$(aarch64-linux-gnu-objdump -d "$CROSS_BUILD"/lib/*.a "$CROSS_BUILD/bin/fulcrum_golden" |
+  grep -cE $'\t(fmadd|fmsub|fnmadd|fnmsub|fmla|fmls)\t' || true)
+[ "$fused" -eq 0 ] || fail "$fused fused multiply-add instructions in the aarch64 code"
+echo "cross-aarch64: all $compiled translation units built with -ffp-contract=off;" \
+  "no fused multiply-add instructions"
+
+# --- Run and compare -------------------------------------------------------------------------
+native_bin="$FULCRUM_BUILD/bin/fulcrum_golden"
+cross_bin="$CROSS_BUILD/bin/fulcrum_golden"
+cross_run() { qemu-aarch64 -L "$SYSROOT" "$cross_bin" "$@"; }
+reference=$("$native_bin")
+got=$(cross_run) || fail "fulcrum_golden exited with an error under qemu-aarch64"
+ran=$SECONDS
+
+failed=0
+passed=0
+while read -r name ticks final combined; do
+  line=$(grep "^$name " <<< "$got" || true)
+  if [ "$line" = "$name $ticks $final $combined" ]; then
+    passed=$((passed + 1))
+    continue
+  fi
+  failed=$((failed + 1))
+  echo "cross-aarch64: scenario '$name' differs on aarch64: got '${line:-no line}'," \
+    "x86-64 gives '$name $ticks $final $combined'"
+  first=$(diff <("$native_bin" --per-tick "$name") <(cross_run --per-tick "$name") |
+    grep -m1 '^<' || true)
+  [ -z "$first" ] || echo "cross-aarch64:   first differing tick: $(cut -d' ' -f3 <<< "$first") of $ticks"
+done <<< "$reference"
+[ "$(wc -l <<< "$got")" -eq "$(wc -l <<< "$reference")" ] || {
+  failed=$((failed + 1))
+  echo "cross-aarch64: aarch64 printed $(wc -l <<< "$got") lines, x86-64 $(wc -l <<< "$reference")"
+}
+
+echo "cross-aarch64: $passed scenarios identical, $failed differ (install $((installed - started)) s," \
+  "build $((built - installed)) s, run $((ran - built)) s)"
+[ "$failed" -eq 0 ] || fail "aarch64 and x86-64 differ"
+echo "cross-aarch64: PASS"
