@@ -482,6 +482,83 @@ Status ground_from_proto(const v1::Builder::Ground& p, const std::string& path, 
   return Status::ok_status();
 }
 
+Status rope_from_proto(const v1::Builder::Rope& p, const std::string& path, SceneDef* scene) {
+  scenes::RopeOptions o;
+  CONVERT_RETURN_IF_ERROR(read_opt_vec(join(path, "start"), p.has_start(), p.start(), &o.start));
+  CONVERT_RETURN_IF_ERROR(read_opt_vec(join(path, "end"), p.has_end(), p.end(), &o.end));
+  if (!(distance(o.start, o.end) > kGeometryTolerance)) {
+    return fail(join(path, "end"), "must differ from start");
+  }
+  if (p.has_count()) {
+    CONVERT_RETURN_IF_ERROR(check_int(join(path, "count"), p.count(), 2, kMaxStackCount));
+    o.count = p.count();
+  }
+  CONVERT_RETURN_IF_ERROR(
+      read_opt(join(path, "radius"), p.has_radius(), p.radius(), Range::kPositive, &o.radius));
+  CONVERT_RETURN_IF_ERROR(
+      read_opt(join(path, "density"), p.has_density(), p.density(), Range::kPositive, &o.density));
+  if (p.has_pin_start()) o.pin_start = p.pin_start();
+  if (p.has_collide()) o.collide = p.collide();
+  CONVERT_RETURN_IF_ERROR(check_room(path, *scene, o.count + 1));
+  scenes::add_rope(scene, o);
+  return Status::ok_status();
+}
+
+Status cloth_from_proto(const v1::Builder::Cloth& p, const std::string& path, SceneDef* scene) {
+  scenes::ClothOptions o;
+  CONVERT_RETURN_IF_ERROR(
+      read_opt_vec(join(path, "top_left"), p.has_top_left(), p.top_left(), &o.top_left));
+  if (p.has_columns()) {
+    CONVERT_RETURN_IF_ERROR(check_int(join(path, "columns"), p.columns(), 2, 300));
+    o.columns = p.columns();
+  }
+  if (p.has_rows()) {
+    CONVERT_RETURN_IF_ERROR(check_int(join(path, "rows"), p.rows(), 2, 300));
+    o.rows = p.rows();
+  }
+  CONVERT_RETURN_IF_ERROR(
+      read_opt(join(path, "spacing"), p.has_spacing(), p.spacing(), Range::kPositive, &o.spacing));
+  CONVERT_RETURN_IF_ERROR(
+      read_opt(join(path, "radius"), p.has_radius(), p.radius(), Range::kPositive, &o.radius));
+  CONVERT_RETURN_IF_ERROR(
+      read_opt(join(path, "density"), p.has_density(), p.density(), Range::kPositive, &o.density));
+  if (p.pinned_size() % 2 != 0) {
+    return fail(join(path, "pinned"), "needs (column, row) pairs: an even count");
+  }
+  if (p.pinned_size() > 0) {
+    o.pinned.clear();
+    for (int i = 0; i < p.pinned_size(); i += 2) {
+      std::string at = indexed(path, "pinned", i);
+      CONVERT_RETURN_IF_ERROR(check_int(at, p.pinned(i), 0, o.columns - 1));
+      CONVERT_RETURN_IF_ERROR(
+          check_int(indexed(path, "pinned", i + 1), p.pinned(i + 1), 0, o.rows - 1));
+      o.pinned.emplace_back(p.pinned(i), p.pinned(i + 1));
+    }
+  } else {
+    o.pinned = {{0, 0}, {o.columns - 1, 0}};
+  }
+  if (p.has_group()) o.group = p.group();
+  CONVERT_RETURN_IF_ERROR(check_room(
+      path, *scene, int64_t{o.columns} * o.rows + static_cast<int64_t>(o.pinned.size())));
+  scenes::add_cloth(scene, o);
+  return Status::ok_status();
+}
+
+Status ragdoll_from_proto(const v1::Builder::Ragdoll& p, const std::string& path, SceneDef* scene) {
+  scenes::RagdollOptions o;
+  CONVERT_RETURN_IF_ERROR(read_opt_vec(join(path, "feet"), p.has_feet(), p.feet(), &o.feet));
+  CONVERT_RETURN_IF_ERROR(
+      read_opt(join(path, "scale"), p.has_scale(), p.scale(), Range::kPositive, &o.scale));
+  if (p.has_group()) o.group = p.group();
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "joint_friction"), p.has_joint_friction(),
+                                   p.joint_friction(), Range::kNonNegative, &o.joint_friction));
+  CONVERT_RETURN_IF_ERROR(
+      read_opt(join(path, "density"), p.has_density(), p.density(), Range::kPositive, &o.density));
+  CONVERT_RETURN_IF_ERROR(check_room(path, *scene, 11));
+  scenes::add_ragdoll(scene, o);
+  return Status::ok_status();
+}
+
 Status builder_from_proto(const v1::Builder& p, const std::string& path, SceneDef* scene) {
   switch (p.kind_case()) {
     case v1::Builder::kPyramid:
@@ -490,10 +567,16 @@ Status builder_from_proto(const v1::Builder& p, const std::string& path, SceneDe
       return stack_from_proto(p.stack(), join(path, "stack"), scene);
     case v1::Builder::kGround:
       return ground_from_proto(p.ground(), join(path, "ground"), scene);
+    case v1::Builder::kRope:
+      return rope_from_proto(p.rope(), join(path, "rope"), scene);
+    case v1::Builder::kCloth:
+      return cloth_from_proto(p.cloth(), join(path, "cloth"), scene);
+    case v1::Builder::kRagdoll:
+      return ragdoll_from_proto(p.ragdoll(), join(path, "ragdoll"), scene);
     case v1::Builder::KIND_NOT_SET:
       break;
   }
-  return fail(path, "no builder (set one of pyramid, stack, ground)");
+  return fail(path, "no builder (set one of pyramid, stack, ground, rope, cloth, ragdoll)");
 }
 
 // --- Engine to proto ---------------------------------------------------------------------------

@@ -484,6 +484,70 @@ TEST(SceneJson, BuildersMatchTheBuilderFunctions) {
   EXPECT_EQ(diff_scene(expected, *scene), "");
 }
 
+// The rope, cloth and ragdoll builders of scene files are the builder functions themselves.
+TEST(SceneJson, JointBuildersMatchTheBuilderFunctions) {
+  Result<SceneDef> scene = parse_scene_json(R"({"builders": [
+    {"rope": {"start": {"x": -2, "y": 5}, "end": {"x": 3, "y": 5}, "count": 12, "radius": 0.04,
+              "density": 8, "pinStart": false, "collide": false}},
+    {"cloth": {"topLeft": {"x": 1, "y": 9}, "columns": 5, "rows": 4, "spacing": 0.3,
+               "pinned": [0, 0, 4, 0, 2, 3], "group": -3}},
+    {"ragdoll": {"feet": {"x": 6}, "scale": 1.2, "group": -5, "jointFriction": 0.1,
+                 "density": 2}}
+  ]})");
+  ASSERT_TRUE(scene.ok()) << scene.status().to_string();
+  SceneDef expected;
+  scenes::RopeOptions r;
+  r.start = Vec2(-2, 5);
+  r.end = Vec2(3, 5);
+  r.count = 12;
+  r.radius = 0.04;
+  r.density = 8;
+  r.pin_start = false;
+  r.collide = false;
+  scenes::add_rope(&expected, r);
+  scenes::ClothOptions c;
+  c.top_left = Vec2(1, 9);
+  c.columns = 5;
+  c.rows = 4;
+  c.spacing = 0.3;
+  c.pinned = {{0, 0}, {4, 0}, {2, 3}};
+  c.group = -3;
+  scenes::add_cloth(&expected, c);
+  scenes::RagdollOptions d;
+  d.feet = Vec2(6, 0);
+  d.scale = 1.2;
+  d.group = -5;
+  d.joint_friction = 0.1;
+  d.density = 2;
+  scenes::add_ragdoll(&expected, d);
+  EXPECT_EQ(diff_scene(expected, *scene), "");
+  EXPECT_EQ(scene->joints.size(), expected.joints.size());
+  Result<World> a = build_world(*scene);
+  Result<World> b = build_world(expected);
+  ASSERT_TRUE(a.ok() && b.ok());
+  for (int i = 0; i < 60; ++i) {
+    a->step();
+    b->step();
+  }
+  EXPECT_EQ(a->state_hash(), b->state_hash());
+}
+
+// scenes/cloth.json is the builtin cloth scene written with builders: same hash after 120 ticks.
+TEST(SceneFiles, ClothFileIsTheBuiltinCloth) {
+  Result<SceneDef> file = load_scene_json(std::string(FULCRUM_SCENES_DIR) + "/cloth.json");
+  ASSERT_TRUE(file.ok()) << file.status().to_string();
+  Result<SceneDef> builtin = scenes::builtin("cloth");
+  ASSERT_TRUE(builtin.ok());
+  Result<World> a = build_world(*file);
+  Result<World> b = build_world(*builtin);
+  ASSERT_TRUE(a.ok() && b.ok());
+  for (int i = 0; i < 120; ++i) {
+    a->step();
+    b->step();
+  }
+  EXPECT_EQ(a->state_hash(), b->state_hash());
+}
+
 // --- Example scene files ---------------------------------------------------------------------
 
 TEST(SceneFiles, EveryExampleLoadsAndBuilds) {
@@ -626,6 +690,19 @@ const BadInput kBadInputs[] = {
     {"NotAnObject", R"([1, 2])", ""},
     {"Null", "null", "Root element must be a message"},
     {"Empty", " \n ", "empty scene"},
+    {"RopeSamePoints", R"({"builders": [{"rope": {"start": {"x": 1}, "end": {"x": 1}}}]})",
+     "builders[0].rope.end: must differ from start"},
+    {"RopeCount", R"({"builders": [{"rope": {"count": 1}}]})", "builders[0].rope.count"},
+    {"ClothOddPins", R"({"builders": [{"cloth": {"pinned": [0, 0, 3]}}]})",
+     "builders[0].cloth.pinned: needs (column, row) pairs"},
+    {"ClothPinOutside", R"({"builders": [{"cloth": {"columns": 4, "pinned": [4, 0]}}]})",
+     "builders[0].cloth.pinned[0]"},
+    {"ClothSpacing", R"({"builders": [{"cloth": {"spacing": -0.2}}]})",
+     "builders[0].cloth.spacing: must be > 0"},
+    {"RagdollScale", R"({"builders": [{"ragdoll": {"scale": 0}}]})",
+     "builders[0].ragdoll.scale: must be > 0"},
+    {"RagdollFriction", R"({"builders": [{"ragdoll": {"jointFriction": "NaN"}}]})",
+     "builders[0].ragdoll.joint_friction"},
 };
 
 INSTANTIATE_TEST_SUITE_P(All, SceneJsonErrors, testing::ValuesIn(kBadInputs),
