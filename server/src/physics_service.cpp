@@ -209,7 +209,7 @@ grpc::Status PhysicsService::CreateWorld(grpc::ServerContext* context,
       registry_->create(request->scene().name(), std::move(world).value());
   if (!session.ok()) return to_grpc_status(session.status());
   reply->set_world_id((*session)->id());
-  (*session)->info(true, reply->mutable_world());
+  (*session)->info(reply->mutable_world());
   return grpc::Status::OK;
 }
 
@@ -217,7 +217,7 @@ grpc::Status PhysicsService::ListWorlds(grpc::ServerContext* context,
                                         const v1::ListWorldsRequest* request,
                                         v1::ListWorldsReply* reply) {
   FULCRUM_CHECK_TOKEN(context);
-  for (const auto& session : registry_->list()) session->info(false, reply->add_worlds());
+  for (const auto& session : registry_->list()) session->summary(reply->add_worlds());
   return grpc::Status::OK;
 }
 
@@ -226,7 +226,7 @@ grpc::Status PhysicsService::GetWorld(grpc::ServerContext* context,
   FULCRUM_CHECK_TOKEN(context);
   auto session = registry_->find(request->world_id());
   if (!session.ok()) return to_grpc_status(session.status());
-  (*session)->info(true, reply);
+  (*session)->info(reply);
   return grpc::Status::OK;
 }
 
@@ -293,7 +293,7 @@ grpc::Status PhysicsService::RestoreSnapshot(grpc::ServerContext* context,
       registry_->create(request->name().empty() ? "fork" : request->name(), std::move(world));
   if (!created.ok()) return to_grpc_status(created.status());
   v1::WorldInfo info;
-  (*created)->info(false, &info);
+  (*created)->summary(&info);
   reply->set_world_id(info.world_id());
   reply->set_tick(info.tick());
   reply->set_state_hash(info.state_hash());

@@ -54,19 +54,38 @@ Status check_vec(const v1::Vec2& v, const std::string& field) {
 }  // namespace
 
 Session::Session(uint64_t id, std::string name, World world, const Limits& limits)
-    : id_(id), name_(std::move(name)), limits_(limits), world_(std::move(world)) {}
+    : id_(id), name_(std::move(name)), limits_(limits), world_(std::move(world)) {
+  refresh_summary_locked(world_.state_hash());  // nobody else can hold the world yet
+}
 
-void Session::info(bool with_settings, v1::WorldInfo* out) {
-  Hold hold(this);
+void Session::refresh_summary_locked(uint64_t state_hash) {
   const WorldMetrics m = world_.metrics();
-  out->set_world_id(id_);
-  out->set_name(name_);
-  out->set_tick(world_.tick());
-  out->set_body_count(m.body_count);
-  out->set_awake_body_count(m.awake_body_count);
-  out->set_contact_count(m.contact_count);
-  out->set_state_hash(world_.state_hash());
-  if (with_settings) world_settings_to_proto(world_.settings(), out->mutable_settings());
+  std::lock_guard<std::mutex> sl(summary_mu_);
+  summary_.set_world_id(id_);
+  summary_.set_name(name_);
+  summary_.set_tick(world_.tick());
+  summary_.set_body_count(m.body_count);
+  summary_.set_awake_body_count(m.awake_body_count);
+  summary_.set_contact_count(m.contact_count);
+  summary_.set_state_hash(state_hash);
+}
+
+void Session::info(v1::WorldInfo* out) {
+  v1::WorldSettings settings;
+  {
+    Hold hold(this);
+    refresh_summary_locked(world_.state_hash());
+    world_settings_to_proto(world_.settings(), &settings);
+  }
+  summary(out);
+  *out->mutable_settings() = std::move(settings);
+}
+
+void Session::summary(v1::WorldInfo* out) {
+  {
+    std::lock_guard<std::mutex> sl(summary_mu_);
+    *out = summary_;
+  }
   std::lock_guard<std::mutex> wl(watchers_mu_);
   out->set_watchers(static_cast<uint32_t>(watchers_.size()));
 }
@@ -97,6 +116,7 @@ Status Session::apply_edits(const v1::EditBatch& batch, std::optional<int64_t> e
     for (JointId id : outcome->joints)
       handle_to_proto(id.index, id.generation, reply->add_joints());
     reply->set_state_hash(world_.state_hash());
+    refresh_summary_locked(reply->state_hash());
   }
   return {};
 }
@@ -119,7 +139,11 @@ Status Session::step(uint32_t ticks, std::optional<int64_t> expected_tick, bool 
     const auto end = std::chrono::steady_clock::now();
     reply->set_tick(world_.tick());
     reply->set_state_hash(world_.state_hash());
-    reply->set_awake_body_count(world_.metrics().awake_body_count);
+    refresh_summary_locked(reply->state_hash());
+    {
+      std::lock_guard<std::mutex> sl(summary_mu_);
+      reply->set_awake_body_count(summary_.awake_body_count());
+    }
     reply->set_step_ms(std::chrono::duration<double, std::milli>(end - start).count());
     if (include_snapshot) {
       *reply->mutable_snapshot() = wrap_snapshot(snapshot_to_proto(world_.snapshot()));
@@ -158,6 +182,7 @@ Status Session::restore(const WorldSnapshot& records, v1::RestoreSnapshotReply* 
     reply->set_world_id(id_);
     reply->set_tick(world_.tick());
     reply->set_state_hash(world_.state_hash());
+    refresh_summary_locked(reply->state_hash());
     publish_all_locked();
   }
   return {};

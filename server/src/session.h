@@ -45,7 +45,11 @@ class Session {
   Session(uint64_t id, std::string name, World world, const Limits& limits);
 
   uint64_t id() const { return id_; }
-  void info(bool with_settings, v1::WorldInfo* out);
+  // The world now, settings included (waits while the world is being stepped).
+  void info(v1::WorldInfo* out);
+  // The world as of the end of its last call, without waiting for a Step in progress
+  // (ListWorlds); no settings.
+  void summary(v1::WorldInfo* out);
 
   Status apply_edits(const v1::EditBatch& batch, std::optional<int64_t> expected_tick,
                      v1::ApplyEditsReply* reply);
@@ -95,6 +99,9 @@ class Session {
   // Gives waiting watchers their first frame if the world is free; see subscribe().
   void deliver_first_frames();
 
+  // Copies tick, hash and counts into summary_; called with mu_ held at the end of every change.
+  void refresh_summary_locked(uint64_t state_hash);
+
   const uint64_t id_;
   const std::string name_;
   const Limits limits_;
@@ -102,6 +109,9 @@ class Session {
   std::mutex mu_;  // guards world_ and epoch_; held for a whole Step
   World world_;
   uint64_t epoch_ = 0;
+
+  std::mutex summary_mu_;  // guards summary_ (never held with another lock taken after it)
+  v1::WorldInfo summary_;  // without settings or watchers
 
   std::mutex watchers_mu_;  // guards watchers_; taken after mu_ when both are held
   std::vector<Watcher> watchers_;
