@@ -69,5 +69,12 @@ int run_sim(const Invocation& inv);
 int run_scenes(const Invocation& inv);
 int run_export(const Invocation& inv);
 int run_replay(const Invocation& inv);
+// Against a fulcrum-server (remote.h).
+int run_create(const Invocation& inv);
+int run_worlds(const Invocation& inv);
+int run_step(const Invocation& inv);
+int run_edit(const Invocation& inv);
+int run_snapshot(const Invocation& inv);
+int run_watch(const Invocation& inv);
 
 }  // namespace fulcrum::cli

@@ -6,6 +6,7 @@
 
 #include "args.h"
 #include "command.h"
+#include "remote.h"
 
 namespace fulcrum::cli {
 namespace {
@@ -25,6 +26,30 @@ constexpr FlagSpec kReplayFlags[] = {
     {"edits", "FILE", "record: edit script (Protobuf JSON of fulcrum.v1.EditScript)"},
     {"keyframes", "K", "record: a full snapshot every K ticks (default 60, 0: none)"},
 };
+
+constexpr FlagSpec kRemoteFlags[] = {kServerFlag, kTokenFileFlag, kDeadlineFlag};
+constexpr FlagSpec kCreateFlags[] = {kSceneFlag, kServerFlag, kTokenFileFlag, kDeadlineFlag};
+constexpr FlagSpec kStepFlags[] = {kServerFlag,
+                                   kTokenFileFlag,
+                                   kDeadlineFlag,
+                                   {"expected-tick", "T", "step only if the world is at tick T"}};
+constexpr FlagSpec kEditFlags[] = {
+    kServerFlag,
+    kTokenFileFlag,
+    kDeadlineFlag,
+    {"file", "EDITS.json", "the batch (Protobuf JSON of fulcrum.v1.EditBatch)"},
+    {"expected-tick", "T", "apply only if the world is at tick T"}};
+constexpr FlagSpec kSnapshotFlags[] = {kServerFlag,
+                                       kTokenFileFlag,
+                                       kDeadlineFlag,
+                                       {"out", "FILE", "get: the snapshot file to write"},
+                                       {"file", "FILE", "restore: the snapshot file to read"}};
+constexpr FlagSpec kWatchFlags[] = {
+    kServerFlag,
+    kTokenFileFlag,
+    kDeadlineFlag,
+    {"seconds", "S", "stop after S seconds (default: when the stream ends)"},
+    {"every", "K", "a frame every K ticks (default 1; late frames are coalesced)"}};
 
 constexpr Command kCommands[] = {
     {"sim", "build a scene, step it N ticks, print the state hash and accuracy figures",
@@ -48,6 +73,24 @@ constexpr Command kCommands[] = {
      "every tick matches; otherwise it exits 1 naming the first divergent tick and, from the\n"
      "keyframe of that tick or the next, the first body, joint or contact field that differs.",
      kReplayFlags, 2, run_replay},
+    {"create", "create a world on a fulcrum-server from a scene file", "--scene FILE",
+     "Prints \"world ID created from FILE: ...\"; ID names the world in the other commands.",
+     kCreateFlags, 0, run_create},
+    {"worlds", "list the worlds on a fulcrum-server", "", "", kRemoteFlags, 0, run_worlds},
+    {"step", "step a world on a fulcrum-server N ticks", "WORLD N [--expected-tick T]", "",
+     kStepFlags, 2, run_step},
+    {"edit", "apply an edit batch to a world on a fulcrum-server",
+     "WORLD --file EDITS.json [--expected-tick T]",
+     "The batch is atomic: any refused edit leaves the world unchanged, and the error names\n"
+     "the edit and field (batch.edits[i].field).",
+     kEditFlags, 1, run_edit},
+    {"snapshot", "save a world on a fulcrum-server, or restore (roll back / fork) one",
+     "get WORLD --out FILE\n"
+     "       fulcrum snapshot restore (WORLD | new) --file FILE",
+     "`restore new` forks: a new world continues from the snapshot.", kSnapshotFlags, 2,
+     run_snapshot},
+    {"watch", "follow a world's frames: one line per second (tick, awake bodies, hash)",
+     "WORLD [--seconds S] [--every K]", "", kWatchFlags, 1, run_watch},
 };
 
 void print_main_help(std::ostream& out) {
@@ -60,7 +103,8 @@ void print_main_help(std::ostream& out) {
     name.resize(10, ' ');
     out << "  " << name << c.summary << "\n";
   }
-  out << "\nexit codes: 0 success, 1 the scene or simulation failed, 2 bad command line\n";
+  out << "\nexit codes: 0 success, 1 the scene, simulation or server call failed, 2 bad command "
+         "line\n";
 }
 
 const Command* find_command(std::string_view name) {

@@ -1,0 +1,29 @@
+// fulcrum worlds: the worlds a server holds.
+#include <cstdio>
+#include <ostream>
+
+#include "remote.h"
+
+namespace fulcrum::cli {
+
+int run_worlds(const Invocation& inv) {
+  int exit_code = kExitOk;
+  auto client = connect_from_args(inv, &exit_code);
+  if (!client) return exit_code;
+  Result<std::vector<client::WorldSummary>> worlds = client->list_worlds();
+  if (!worlds.ok()) return inv.fail(worlds.status().message());
+  char line[256];
+  std::snprintf(line, sizeof line, "%-6s %-16s %10s %8s %8s %-16s %s\n", "id", "name", "tick",
+                "bodies", "awake", "state hash", "watchers");
+  inv.out << line;
+  for (const client::WorldSummary& w : *worlds) {
+    std::snprintf(line, sizeof line, "%-6llu %-16s %10lld %8d %8d %-16s %u\n",
+                  static_cast<unsigned long long>(w.id), w.name.c_str(),
+                  static_cast<long long>(w.tick), w.body_count, w.awake_body_count,
+                  hex64(w.state_hash).c_str(), w.watchers);
+    inv.out << line;
+  }
+  return kExitOk;
+}
+
+}  // namespace fulcrum::cli

@@ -1,0 +1,153 @@
+// fulcrum_client: a C++ client of the Physics service (proto/fulcrum/v1/service.proto) that
+// shows no gRPC types. Every call returns a Result or Status; a server error keeps the
+// server's code and message (e.g. NOT_FOUND "world_id: no world 7"). Unary calls carry a
+// deadline (ClientOptions::deadline).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "fulcrum/scene.h"
+#include "fulcrum/status.h"
+#include "fulcrum/v1/edit.pb.h"
+#include "fulcrum/world.h"
+
+namespace fulcrum::client {
+
+struct ClientOptions {
+  std::string address = "127.0.0.1:50051";    // HOST:PORT
+  std::string token;                          // bearer token; empty: none sent
+  std::chrono::milliseconds deadline{30000};  // per unary call
+};
+
+// Server errors keep their code where the engine's StatusCode has it; others (UNAUTHENTICATED,
+// UNAVAILABLE, DEADLINE_EXCEEDED, ...) come back as kInternal with the gRPC code name leading
+// the message ("UNAVAILABLE: failed to connect to all addresses").
+
+struct WorldSummary {
+  uint64_t id = 0;
+  std::string name;
+  int64_t tick = 0;
+  int body_count = 0;
+  int awake_body_count = 0;
+  int contact_count = 0;
+  uint64_t state_hash = 0;
+  uint32_t watchers = 0;
+};
+
+struct StepResult {
+  int64_t tick = 0;
+  uint64_t state_hash = 0;
+  int awake_body_count = 0;
+  double step_ms = 0.0;  // server wall time of the steps
+  std::string snapshot;  // serialized SnapshotFile when asked for; else empty
+};
+
+struct EditResult {
+  int64_t tick = 0;  // the tick boundary the batch applied at
+  uint64_t state_hash = 0;
+  std::vector<BodyId> bodies;
+  std::vector<ShapeId> shapes;
+  std::vector<JointId> joints;
+};
+
+struct SnapshotResult {
+  int64_t tick = 0;
+  uint64_t state_hash = 0;
+  std::string bytes;  // serialized SnapshotFile (restore_encoded and `snapshot restore` read it)
+};
+
+struct RestoreResult {
+  uint64_t world_id = 0;
+  int64_t tick = 0;
+  uint64_t state_hash = 0;
+};
+
+struct BodyFrame {
+  BodyId id;
+  Vec2 position = Vec2::Zero();  // m
+  double angle = 0.0;            // rad
+  Vec2 linear_velocity = Vec2::Zero();
+  double angular_velocity = 0.0;
+  bool awake = false;
+};
+
+struct Frame {
+  uint64_t world_id = 0;
+  int64_t tick = 0;
+  uint64_t state_hash = 0;
+  uint64_t skipped_frames = 0;  // coalesced away since the previous frame
+  int64_t skipped_ticks = 0;
+  int body_count = 0;
+  int awake_body_count = 0;
+  bool full = false;      // `bodies` lists every live body
+  bool restored = false;  // the world was restored since the previous frame
+  std::vector<BodyFrame> bodies;
+  std::vector<BodyId> destroyed;
+};
+
+enum class FrameBodies { kAll, kChanged, kNone };
+
+struct SubscribeOptions {
+  uint32_t every_ticks = 1;
+  FrameBodies bodies = FrameBodies::kChanged;
+};
+
+// An open StreamFrames call. The callback runs on the subscription's own thread, one frame at
+// a time; while it runs, newer frames are coalesced on the server.
+class Subscription {
+ public:
+  virtual ~Subscription() = default;
+  // Ends the stream (the callback is not called after cancel returns).
+  virtual void cancel() = 0;
+  // Blocks until the stream ends; returns how (OK, NOT_FOUND when the world was deleted, ...).
+  virtual Status wait() = 0;
+};
+
+struct ShapeHit {
+  ShapeId shape;
+  BodyId body;
+};
+
+class Client {
+ public:
+  // Opens a channel (lazily: a server that is down shows up on the first call).
+  static std::unique_ptr<Client> connect(const ClientOptions& options);
+  virtual ~Client() = default;
+
+  virtual Result<WorldSummary> create_world(const SceneDef& scene, std::string_view name = {}) = 0;
+  // A scene file's text (Protobuf JSON of fulcrum.v1.Scene), sent as written: builders stay
+  // builders. JSON errors are reported without calling the server.
+  virtual Result<WorldSummary> create_world_json(std::string_view json) = 0;
+  virtual Result<std::vector<WorldSummary>> list_worlds() = 0;
+  virtual Result<WorldSummary> get_world(uint64_t world) = 0;
+  virtual Status delete_world(uint64_t world) = 0;
+
+  virtual Result<EditResult> apply_edits(uint64_t world, const v1::EditBatch& batch,
+                                         std::optional<int64_t> expected_tick = {}) = 0;
+  virtual Result<StepResult> step(uint64_t world, uint32_t ticks,
+                                  std::optional<int64_t> expected_tick = {},
+                                  bool include_snapshot = false) = 0;
+
+  virtual Result<SnapshotResult> get_snapshot(uint64_t world) = 0;
+  // Rollback into `world`, or, with world 0, a new world (fork) named `name`.
+  virtual Result<RestoreResult> restore(uint64_t world, std::string_view snapshot_bytes,
+                                        std::string_view name = {}) = 0;
+
+  virtual Result<std::unique_ptr<Subscription>> subscribe(
+      uint64_t world, const SubscribeOptions& options,
+      std::function<void(const Frame&)> on_frame) = 0;
+
+  virtual Result<std::optional<RayHit>> ray_cast_closest(uint64_t world, const Vec2& origin,
+                                                         const Vec2& translation) = 0;
+  virtual Result<std::vector<ShapeHit>> overlap_aabb(uint64_t world, const AABB& box) = 0;
+  virtual Result<std::vector<ShapeHit>> overlap_point(uint64_t world, const Vec2& point) = 0;
+};
+
+}  // namespace fulcrum::client

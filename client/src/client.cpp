@@ -1,0 +1,386 @@
+// The gRPC side of fulcrum_client: converts between the public types of fulcrum/client.h and
+// the service's messages, and gRPC statuses into fulcrum::Status.
+#include "fulcrum/client.h"
+
+#include <google/protobuf/util/json_util.h>
+#include <grpcpp/grpcpp.h>
+
+#include <atomic>
+#include <mutex>
+#include <thread>
+
+#include "fulcrum/v1/service.grpc.pb.h"
+#include "scene_convert.h"
+
+namespace fulcrum::client {
+
+namespace {
+
+const char* grpc_code_name(grpc::StatusCode code) {
+  switch (code) {
+    case grpc::StatusCode::CANCELLED:
+      return "CANCELLED";
+    case grpc::StatusCode::UNKNOWN:
+      return "UNKNOWN";
+    case grpc::StatusCode::DEADLINE_EXCEEDED:
+      return "DEADLINE_EXCEEDED";
+    case grpc::StatusCode::ALREADY_EXISTS:
+      return "ALREADY_EXISTS";
+    case grpc::StatusCode::PERMISSION_DENIED:
+      return "PERMISSION_DENIED";
+    case grpc::StatusCode::ABORTED:
+      return "ABORTED";
+    case grpc::StatusCode::OUT_OF_RANGE:
+      return "OUT_OF_RANGE";
+    case grpc::StatusCode::UNIMPLEMENTED:
+      return "UNIMPLEMENTED";
+    case grpc::StatusCode::INTERNAL:
+      return "INTERNAL";
+    case grpc::StatusCode::UNAVAILABLE:
+      return "UNAVAILABLE";
+    case grpc::StatusCode::UNAUTHENTICATED:
+      return "UNAUTHENTICATED";
+    default:
+      return "ERROR";
+  }
+}
+
+Status from_grpc(const grpc::Status& s) {
+  switch (s.error_code()) {
+    case grpc::StatusCode::OK:
+      return {};
+    case grpc::StatusCode::INVALID_ARGUMENT:
+      return Status(StatusCode::kInvalidArgument, s.error_message());
+    case grpc::StatusCode::NOT_FOUND:
+      return Status(StatusCode::kNotFound, s.error_message());
+    case grpc::StatusCode::FAILED_PRECONDITION:
+      return Status(StatusCode::kFailedPrecondition, s.error_message());
+    case grpc::StatusCode::RESOURCE_EXHAUSTED:
+      return Status(StatusCode::kResourceExhausted, s.error_message());
+    case grpc::StatusCode::DATA_LOSS:
+      return Status(StatusCode::kDataLoss, s.error_message());
+    default:
+      return Status(StatusCode::kInternal,
+                    std::string(grpc_code_name(s.error_code())) + ": " + s.error_message());
+  }
+}
+
+WorldSummary summary_from(const v1::WorldInfo& w) {
+  WorldSummary out;
+  out.id = w.world_id();
+  out.name = w.name();
+  out.tick = w.tick();
+  out.body_count = w.body_count();
+  out.awake_body_count = w.awake_body_count();
+  out.contact_count = w.contact_count();
+  out.state_hash = w.state_hash();
+  out.watchers = w.watchers();
+  return out;
+}
+
+template <typename Id>
+Id id_from(const v1::Handle& h) {
+  Id id;
+  id.index = h.index();
+  id.generation = h.generation();
+  return id;
+}
+
+void vec_to(const Vec2& v, v1::Vec2* out) {
+  out->set_x(v.x());
+  out->set_y(v.y());
+}
+
+Frame frame_from(const v1::Frame& f) {
+  Frame out;
+  out.world_id = f.world_id();
+  out.tick = f.tick();
+  out.state_hash = f.state_hash();
+  out.skipped_frames = f.skipped_frames();
+  out.skipped_ticks = f.skipped_ticks();
+  out.body_count = f.body_count();
+  out.awake_body_count = f.awake_body_count();
+  out.full = f.full();
+  out.restored = f.restored();
+  out.bodies.reserve(f.bodies_size());
+  for (const v1::BodyFrame& b : f.bodies()) {
+    BodyFrame m;
+    m.id = id_from<BodyId>(b.body());
+    m.position = Vec2(b.position().x(), b.position().y());
+    m.angle = b.angle();
+    m.linear_velocity = Vec2(b.linear_velocity().x(), b.linear_velocity().y());
+    m.angular_velocity = b.angular_velocity();
+    m.awake = b.awake();
+    out.bodies.push_back(m);
+  }
+  for (const v1::Handle& h : f.destroyed()) out.destroyed.push_back(id_from<BodyId>(h));
+  return out;
+}
+
+class GrpcSubscription final : public Subscription {
+ public:
+  GrpcSubscription(v1::Physics::Stub* stub, const std::string& token,
+                   const v1::StreamFramesRequest& request,
+                   std::function<void(const Frame&)> on_frame)
+      : on_frame_(std::move(on_frame)) {
+    if (!token.empty()) context_.AddMetadata("authorization", "Bearer " + token);
+    reader_ = stub->StreamFrames(&context_, request);
+    thread_ = std::thread([this] { run(); });
+  }
+  ~GrpcSubscription() override {
+    cancel();
+    (void)wait();
+  }
+
+  void cancel() override {
+    cancelled_ = true;
+    context_.TryCancel();
+    // The callback may be running on the reader thread: wait for it unless we are it.
+    if (std::this_thread::get_id() != thread_.get_id()) {
+      std::lock_guard<std::mutex> lock(callback_mu_);
+    }
+  }
+
+  Status wait() override {
+    std::lock_guard<std::mutex> lock(join_mu_);
+    if (thread_.joinable() && std::this_thread::get_id() != thread_.get_id()) thread_.join();
+    return final_;
+  }
+
+ private:
+  void run() {
+    v1::Frame frame;
+    while (reader_->Read(&frame)) {
+      std::lock_guard<std::mutex> lock(callback_mu_);
+      if (cancelled_) continue;  // drain until the cancel takes effect
+      on_frame_(frame_from(frame));
+    }
+    grpc::Status status = reader_->Finish();
+    final_ = cancelled_ ? Status() : from_grpc(status);
+  }
+
+  std::function<void(const Frame&)> on_frame_;
+  grpc::ClientContext context_;
+  std::unique_ptr<grpc::ClientReader<v1::Frame>> reader_;
+  std::atomic<bool> cancelled_{false};
+  std::mutex callback_mu_;
+  std::mutex join_mu_;
+  Status final_;
+  std::thread thread_;
+};
+
+class GrpcClient final : public Client {
+ public:
+  explicit GrpcClient(const ClientOptions& options) : options_(options) {
+    grpc::ChannelArguments args;
+    args.SetMaxReceiveMessageSize(-1);  // the server enforces its own limit
+    channel_ = grpc::CreateCustomChannel(options.address, grpc::InsecureChannelCredentials(), args);
+    stub_ = v1::Physics::NewStub(channel_);
+  }
+
+  Result<WorldSummary> create_world(const SceneDef& scene, std::string_view name) override {
+    v1::CreateWorldRequest request;
+    *request.mutable_scene() = scene_to_proto(scene, name);
+    return create(request);
+  }
+
+  Result<WorldSummary> create_world_json(std::string_view json) override {
+    v1::CreateWorldRequest request;
+    google::protobuf::util::JsonParseOptions parse;
+    parse.ignore_unknown_fields = false;
+    auto st = google::protobuf::util::JsonStringToMessage(
+        google::protobuf::StringPiece(json.data(), json.size()), request.mutable_scene(), parse);
+    if (!st.ok()) return invalid_argument("scene JSON: " + std::string(st.message()));
+    return create(request);
+  }
+
+  Result<std::vector<WorldSummary>> list_worlds() override {
+    v1::ListWorldsReply reply;
+    auto context = make_context();
+    Status st = from_grpc(stub_->ListWorlds(context.get(), v1::ListWorldsRequest(), &reply));
+    if (!st.ok()) return st;
+    std::vector<WorldSummary> out;
+    for (const v1::WorldInfo& w : reply.worlds()) out.push_back(summary_from(w));
+    return out;
+  }
+
+  Result<WorldSummary> get_world(uint64_t world) override {
+    v1::GetWorldRequest request;
+    request.set_world_id(world);
+    v1::WorldInfo reply;
+    auto context = make_context();
+    Status st = from_grpc(stub_->GetWorld(context.get(), request, &reply));
+    if (!st.ok()) return st;
+    return summary_from(reply);
+  }
+
+  Status delete_world(uint64_t world) override {
+    v1::DeleteWorldRequest request;
+    request.set_world_id(world);
+    v1::DeleteWorldReply reply;
+    auto context = make_context();
+    return from_grpc(stub_->DeleteWorld(context.get(), request, &reply));
+  }
+
+  Result<EditResult> apply_edits(uint64_t world, const v1::EditBatch& batch,
+                                 std::optional<int64_t> expected_tick) override {
+    v1::ApplyEditsRequest request;
+    request.set_world_id(world);
+    *request.mutable_batch() = batch;
+    if (expected_tick) request.set_expected_tick(*expected_tick);
+    v1::ApplyEditsReply reply;
+    auto context = make_context();
+    Status st = from_grpc(stub_->ApplyEdits(context.get(), request, &reply));
+    if (!st.ok()) return st;
+    EditResult out;
+    out.tick = reply.tick();
+    out.state_hash = reply.state_hash();
+    for (const auto& h : reply.bodies()) out.bodies.push_back(id_from<BodyId>(h));
+    for (const auto& h : reply.shapes()) out.shapes.push_back(id_from<ShapeId>(h));
+    for (const auto& h : reply.joints()) out.joints.push_back(id_from<JointId>(h));
+    return out;
+  }
+
+  Result<StepResult> step(uint64_t world, uint32_t ticks, std::optional<int64_t> expected_tick,
+                          bool include_snapshot) override {
+    v1::StepRequest request;
+    request.set_world_id(world);
+    request.set_ticks(ticks);
+    if (expected_tick) request.set_expected_tick(*expected_tick);
+    request.set_include_snapshot(include_snapshot);
+    v1::StepReply reply;
+    auto context = make_context();
+    Status st = from_grpc(stub_->Step(context.get(), request, &reply));
+    if (!st.ok()) return st;
+    StepResult out;
+    out.tick = reply.tick();
+    out.state_hash = reply.state_hash();
+    out.awake_body_count = reply.awake_body_count();
+    out.step_ms = reply.step_ms();
+    if (reply.has_snapshot()) reply.snapshot().SerializeToString(&out.snapshot);
+    return out;
+  }
+
+  Result<SnapshotResult> get_snapshot(uint64_t world) override {
+    v1::GetSnapshotRequest request;
+    request.set_world_id(world);
+    v1::GetSnapshotReply reply;
+    auto context = make_context();
+    Status st = from_grpc(stub_->GetSnapshot(context.get(), request, &reply));
+    if (!st.ok()) return st;
+    SnapshotResult out;
+    out.tick = reply.tick();
+    out.state_hash = reply.state_hash();
+    reply.snapshot().SerializeToString(&out.bytes);
+    return out;
+  }
+
+  Result<RestoreResult> restore(uint64_t world, std::string_view snapshot_bytes,
+                                std::string_view name) override {
+    v1::RestoreSnapshotRequest request;
+    request.set_world_id(world);
+    request.set_name(std::string(name));
+    if (!request.mutable_snapshot()->ParseFromArray(snapshot_bytes.data(),
+                                                    static_cast<int>(snapshot_bytes.size()))) {
+      return data_loss("snapshot: not a snapshot file, or truncated (" +
+                       std::to_string(snapshot_bytes.size()) + " bytes)");
+    }
+    v1::RestoreSnapshotReply reply;
+    auto context = make_context();
+    Status st = from_grpc(stub_->RestoreSnapshot(context.get(), request, &reply));
+    if (!st.ok()) return st;
+    return RestoreResult{reply.world_id(), reply.tick(), reply.state_hash()};
+  }
+
+  Result<std::unique_ptr<Subscription>> subscribe(
+      uint64_t world, const SubscribeOptions& options,
+      std::function<void(const Frame&)> on_frame) override {
+    if (options.every_ticks == 0) return invalid_argument("every_ticks: must be >= 1 (got 0)");
+    v1::StreamFramesRequest request;
+    request.set_world_id(world);
+    request.set_every_ticks(options.every_ticks);
+    request.set_bodies(options.bodies == FrameBodies::kAll       ? v1::FRAME_BODIES_ALL
+                       : options.bodies == FrameBodies::kChanged ? v1::FRAME_BODIES_CHANGED
+                                                                 : v1::FRAME_BODIES_NONE);
+    return std::unique_ptr<Subscription>(
+        new GrpcSubscription(stub_.get(), options_.token, request, std::move(on_frame)));
+  }
+
+  Result<std::optional<RayHit>> ray_cast_closest(uint64_t world, const Vec2& origin,
+                                                 const Vec2& translation) override {
+    v1::QueryRequest request;
+    request.set_world_id(world);
+    vec_to(origin, request.mutable_ray_cast()->mutable_origin());
+    vec_to(translation, request.mutable_ray_cast()->mutable_translation());
+    v1::QueryReply reply;
+    Status st = query(request, &reply);
+    if (!st.ok()) return st;
+    if (reply.hits_size() == 0) return std::optional<RayHit>();
+    const v1::RayHit& h = reply.hits(0);
+    RayHit hit;
+    hit.shape = id_from<ShapeId>(h.shape());
+    hit.point = Vec2(h.point().x(), h.point().y());
+    hit.normal = Vec2(h.normal().x(), h.normal().y());
+    hit.fraction = h.fraction();
+    return std::optional<RayHit>(hit);
+  }
+
+  Result<std::vector<ShapeHit>> overlap_aabb(uint64_t world, const AABB& box) override {
+    v1::QueryRequest request;
+    request.set_world_id(world);
+    vec_to(box.lower, request.mutable_aabb()->mutable_lower());
+    vec_to(box.upper, request.mutable_aabb()->mutable_upper());
+    return shape_hits(request);
+  }
+
+  Result<std::vector<ShapeHit>> overlap_point(uint64_t world, const Vec2& point) override {
+    v1::QueryRequest request;
+    request.set_world_id(world);
+    vec_to(point, request.mutable_point()->mutable_point());
+    return shape_hits(request);
+  }
+
+ private:
+  std::unique_ptr<grpc::ClientContext> make_context() const {
+    auto context = std::make_unique<grpc::ClientContext>();
+    context->set_deadline(std::chrono::system_clock::now() + options_.deadline);
+    if (!options_.token.empty()) context->AddMetadata("authorization", "Bearer " + options_.token);
+    return context;
+  }
+
+  Result<WorldSummary> create(const v1::CreateWorldRequest& request) {
+    v1::CreateWorldReply reply;
+    auto context = make_context();
+    Status st = from_grpc(stub_->CreateWorld(context.get(), request, &reply));
+    if (!st.ok()) return st;
+    return summary_from(reply.world());
+  }
+
+  Status query(const v1::QueryRequest& request, v1::QueryReply* reply) {
+    auto context = make_context();
+    return from_grpc(stub_->Query(context.get(), request, reply));
+  }
+
+  Result<std::vector<ShapeHit>> shape_hits(const v1::QueryRequest& request) {
+    v1::QueryReply reply;
+    Status st = query(request, &reply);
+    if (!st.ok()) return st;
+    std::vector<ShapeHit> out;
+    for (const v1::ShapeHit& h : reply.shapes()) {
+      out.push_back(ShapeHit{id_from<ShapeId>(h.shape()), id_from<BodyId>(h.body())});
+    }
+    return out;
+  }
+
+  ClientOptions options_;
+  std::shared_ptr<grpc::Channel> channel_;
+  std::unique_ptr<v1::Physics::Stub> stub_;
+};
+
+}  // namespace
+
+std::unique_ptr<Client> Client::connect(const ClientOptions& options) {
+  return std::make_unique<GrpcClient>(options);
+}
+
+}  // namespace fulcrum::client

@@ -1,0 +1,106 @@
+#include "frames.h"
+
+#include <cstring>
+
+namespace fulcrum::server {
+
+namespace {
+
+bool same_bits(double a, double b) {
+  return std::memcmp(&a, &b, sizeof a) == 0;
+}
+
+// Bit-for-bit equality: a body whose state did not change at all is not re-sent.
+bool same_motion(const BodyMotion& a, const BodyMotion& b) {
+  return a.id == b.id && a.awake == b.awake && same_bits(a.position.x(), b.position.x()) &&
+         same_bits(a.position.y(), b.position.y()) && same_bits(a.angle, b.angle) &&
+         same_bits(a.linear_velocity.x(), b.linear_velocity.x()) &&
+         same_bits(a.linear_velocity.y(), b.linear_velocity.y()) &&
+         same_bits(a.angular_velocity, b.angular_velocity);
+}
+
+void motion_to_proto(const BodyMotion& m, v1::BodyFrame* out) {
+  out->mutable_body()->set_index(m.id.index);
+  out->mutable_body()->set_generation(m.id.generation);
+  out->mutable_position()->set_x(m.position.x());
+  out->mutable_position()->set_y(m.position.y());
+  out->set_angle(m.angle);
+  out->mutable_linear_velocity()->set_x(m.linear_velocity.x());
+  out->mutable_linear_velocity()->set_y(m.linear_velocity.y());
+  out->set_angular_velocity(m.angular_velocity);
+  out->set_awake(m.awake);
+}
+
+}  // namespace
+
+std::shared_ptr<const PublishedFrame> capture_frame(const World& world, uint64_t world_id,
+                                                    uint64_t epoch) {
+  auto frame = std::make_shared<PublishedFrame>();
+  frame->world_id = world_id;
+  frame->tick = world.tick();
+  frame->state_hash = world.state_hash();
+  frame->epoch = epoch;
+  const std::vector<BodyId> ids = world.bodies();
+  frame->bodies.reserve(ids.size());
+  for (BodyId id : ids) {
+    Result<BodyState> s = world.body_state(id);
+    if (!s.ok()) continue;  // cannot happen for a live id; skip rather than abort
+    BodyMotion m;
+    m.id = id;
+    m.position = s->transform.p;
+    m.angle = s->transform.q.angle();
+    m.linear_velocity = s->linear_velocity;
+    m.angular_velocity = s->angular_velocity;
+    m.awake = s->awake;
+    if (m.awake) ++frame->awake_body_count;
+    frame->bodies.push_back(m);
+  }
+  return frame;
+}
+
+void frame_to_proto(const PublishedFrame& next, const PublishedFrame* previous,
+                    v1::FrameBodies mode, uint64_t skipped_frames, uint32_t every_ticks,
+                    v1::Frame* out) {
+  out->Clear();
+  out->set_world_id(next.world_id);
+  out->set_tick(next.tick);
+  out->set_state_hash(next.state_hash);
+  out->set_skipped_frames(skipped_frames);
+  out->set_skipped_ticks(static_cast<int64_t>(skipped_frames) * every_ticks);
+  out->set_body_count(static_cast<int32_t>(next.bodies.size()));
+  out->set_awake_body_count(next.awake_body_count);
+  const bool restored = previous != nullptr && previous->epoch != next.epoch;
+  out->set_restored(restored);
+  if (mode == v1::FRAME_BODIES_NONE) return;
+
+  if (mode == v1::FRAME_BODIES_ALL || previous == nullptr || restored) {
+    out->set_full(true);
+    for (const BodyMotion& m : next.bodies) motion_to_proto(m, out->add_bodies());
+    return;
+  }
+  // Both lists are in index order: one merge finds changed, new and destroyed bodies.
+  const std::vector<BodyMotion>& a = previous->bodies;
+  const std::vector<BodyMotion>& b = next.bodies;
+  size_t i = 0, j = 0;
+  while (i < a.size() || j < b.size()) {
+    if (j == b.size() || (i < a.size() && a[i].id.index < b[j].id.index)) {
+      v1::Handle* h = out->add_destroyed();
+      h->set_index(a[i].id.index);
+      h->set_generation(a[i].id.generation);
+      ++i;
+    } else if (i == a.size() || b[j].id.index < a[i].id.index) {
+      motion_to_proto(b[j++], out->add_bodies());
+    } else {
+      if (a[i].id.generation != b[j].id.generation) {
+        v1::Handle* h = out->add_destroyed();  // the slot was reused by a new body
+        h->set_index(a[i].id.index);
+        h->set_generation(a[i].id.generation);
+      }
+      if (!same_motion(a[i], b[j])) motion_to_proto(b[j], out->add_bodies());
+      ++i;
+      ++j;
+    }
+  }
+}
+
+}  // namespace fulcrum::server

@@ -1,0 +1,328 @@
+#include "physics_service.h"
+
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <utility>
+
+#include "fulcrum/scene.h"
+#include "scene_convert.h"
+
+namespace fulcrum::server {
+
+grpc::Status to_grpc_status(const Status& status) {
+  switch (status.code()) {
+    case StatusCode::kOk:
+      return grpc::Status::OK;
+    case StatusCode::kInvalidArgument:
+      return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, status.message());
+    case StatusCode::kNotFound:
+      return grpc::Status(grpc::StatusCode::NOT_FOUND, status.message());
+    case StatusCode::kFailedPrecondition:
+      return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION, status.message());
+    case StatusCode::kResourceExhausted:
+      return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED, status.message());
+    case StatusCode::kDataLoss:
+      return grpc::Status(grpc::StatusCode::DATA_LOSS, status.message());
+    case StatusCode::kInternal:
+      break;
+  }
+  return grpc::Status(grpc::StatusCode::INTERNAL, status.message());
+}
+
+namespace {
+
+std::optional<int64_t> optional_tick(bool has, int64_t value) {
+  return has ? std::optional<int64_t>(value) : std::nullopt;
+}
+
+// Compares without stopping at the first difference, so the time taken says nothing about
+// how much of the token a caller guessed.
+bool same_secret(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  unsigned char diff = 0;
+  for (size_t i = 0; i < a.size(); ++i) diff |= static_cast<unsigned char>(a[i] ^ b[i]);
+  return diff == 0;
+}
+
+// A stream that ends at once with an error (bad request, unknown world).
+class RefusedStream final : public grpc::ServerWriteReactor<v1::Frame> {
+ public:
+  explicit RefusedStream(grpc::Status status) { Finish(std::move(status)); }
+  void OnDone() override { delete this; }
+};
+
+// One StreamFrames call. The world's thread offers frames; the newest unread one waits in
+// pending_ (a mailbox of one: a newer frame replaces it and counts as skipped), so a reader
+// that falls behind costs the world nothing and holds at most two frames (one in flight). The
+// object keeps itself alive (self_) until gRPC calls OnDone; the Session holds a weak_ptr.
+class FrameStream final : public grpc::ServerWriteReactor<v1::Frame>, public FrameSink {
+ public:
+  FrameStream(std::shared_ptr<Session> session, const v1::StreamFramesRequest& request)
+      : session_(std::move(session)),
+        every_(request.every_ticks() == 0 ? 1 : request.every_ticks()),
+        mode_(request.bodies()) {}
+
+  static FrameStream* start(std::shared_ptr<Session> session,
+                            const v1::StreamFramesRequest& request) {
+    auto stream = std::make_shared<FrameStream>(session, request);
+    stream->self_ = stream;
+    session->subscribe(stream);
+    return stream.get();
+  }
+
+  uint32_t every_ticks() const override { return every_; }
+
+  void offer(std::shared_ptr<const PublishedFrame> frame) override {
+    std::unique_lock<std::mutex> lock(mu_);
+    if (closing_) return;
+    if (pending_) ++skipped_;
+    pending_ = std::move(frame);
+    if (writing_) return;  // OnWriteDone picks it up
+    prepare_write_locked();
+    lock.unlock();
+    StartWrite(&message_);
+  }
+
+  void close(const Status& status, bool shutting_down) override {
+    end(shutting_down ? grpc::Status(grpc::StatusCode::UNAVAILABLE, "the server is stopping")
+                      : to_grpc_status(status));
+  }
+
+  void OnWriteDone(bool ok) override {
+    std::unique_lock<std::mutex> lock(mu_);
+    writing_ = false;
+    if (!ok && !closing_) {
+      closing_ = true;
+      final_ = grpc::Status(grpc::StatusCode::CANCELLED, "the stream was broken");
+    }
+    if (closing_) {
+      if (finished_) return;
+      finished_ = true;
+      lock.unlock();
+      Finish(final_);
+      return;
+    }
+    if (!pending_) return;
+    prepare_write_locked();
+    lock.unlock();
+    StartWrite(&message_);
+  }
+
+  void OnCancel() override {
+    end(grpc::Status(grpc::StatusCode::CANCELLED, "the client cancelled the stream"));
+  }
+
+  void OnDone() override {
+    session_->unsubscribe(this);
+    std::shared_ptr<FrameStream> last = std::move(self_);  // may destroy this on return
+  }
+
+ private:
+  void end(grpc::Status status) {
+    std::unique_lock<std::mutex> lock(mu_);
+    if (closing_) return;
+    closing_ = true;
+    final_ = std::move(status);
+    if (writing_ || finished_) return;  // OnWriteDone finishes
+    finished_ = true;
+    lock.unlock();
+    Finish(final_);
+  }
+
+  void prepare_write_locked() {
+    frame_to_proto(*pending_, last_sent_.get(), mode_, skipped_, every_, &message_);
+    last_sent_ = std::move(pending_);
+    pending_.reset();
+    skipped_ = 0;
+    writing_ = true;
+  }
+
+  const std::shared_ptr<Session> session_;
+  const uint32_t every_;
+  const v1::FrameBodies mode_;
+  std::shared_ptr<FrameStream> self_;
+
+  std::mutex mu_;
+  std::shared_ptr<const PublishedFrame> pending_;    // newest frame not yet sent
+  std::shared_ptr<const PublishedFrame> last_sent_;  // what the reader has (CHANGED diffs)
+  uint64_t skipped_ = 0;
+  v1::Frame message_;  // the write in flight; untouched while writing_
+  bool writing_ = false;
+  bool closing_ = false;
+  bool finished_ = false;
+  grpc::Status final_;
+};
+
+}  // namespace
+
+PhysicsService::PhysicsService(Registry* registry, std::string token)
+    : registry_(registry), token_(std::move(token)) {}
+
+void PhysicsService::begin_shutdown() {
+  shutting_down_ = true;
+  registry_->close_all_streams(Status(StatusCode::kInternal, "the server is stopping"));
+}
+
+grpc::Status PhysicsService::check_token(const grpc::ServerContextBase& context) const {
+  if (token_.empty()) return grpc::Status::OK;
+  const auto& metadata = context.client_metadata();
+  auto it = metadata.find("authorization");
+  if (it == metadata.end()) {
+    return grpc::Status(grpc::StatusCode::UNAUTHENTICATED,
+                        "authorization: missing (expected \"Bearer <token>\")");
+  }
+  const std::string_view value(it->second.data(), it->second.size());
+  constexpr std::string_view kPrefix = "Bearer ";
+  if (value.substr(0, kPrefix.size()) != kPrefix ||
+      !same_secret(value.substr(kPrefix.size()), token_)) {
+    return grpc::Status(grpc::StatusCode::UNAUTHENTICATED, "authorization: wrong token");
+  }
+  return grpc::Status::OK;
+}
+
+#define FULCRUM_CHECK_TOKEN(context)              \
+  do {                                            \
+    grpc::Status auth_ = check_token(*(context)); \
+    if (!auth_.ok()) return auth_;                \
+  } while (false)
+
+grpc::Status PhysicsService::CreateWorld(grpc::ServerContext* context,
+                                         const v1::CreateWorldRequest* request,
+                                         v1::CreateWorldReply* reply) {
+  FULCRUM_CHECK_TOKEN(context);
+  if (!request->has_scene()) {
+    return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "scene: required");
+  }
+  Result<SceneDef> scene = scene_from_proto(request->scene());
+  if (!scene.ok()) return to_grpc_status(scene.status().with_prefix("scene."));
+  // Checked before building: a scene over the limit is refused without allocating it.
+  if (static_cast<int64_t>(scene->bodies.size()) > registry_->limits().max_bodies) {
+    return to_grpc_status(
+        Status(StatusCode::kResourceExhausted,
+               "scene: " + std::to_string(scene->bodies.size()) + " bodies; this server allows " +
+                   std::to_string(registry_->limits().max_bodies) + " per world"));
+  }
+  Result<World> world = build_world(*scene);
+  if (!world.ok()) return to_grpc_status(world.status().with_prefix("scene."));
+  Result<std::shared_ptr<Session>> session =
+      registry_->create(request->scene().name(), std::move(world).value());
+  if (!session.ok()) return to_grpc_status(session.status());
+  reply->set_world_id((*session)->id());
+  (*session)->info(reply->mutable_world());
+  return grpc::Status::OK;
+}
+
+grpc::Status PhysicsService::ListWorlds(grpc::ServerContext* context,
+                                        const v1::ListWorldsRequest* request,
+                                        v1::ListWorldsReply* reply) {
+  FULCRUM_CHECK_TOKEN(context);
+  for (const auto& session : registry_->list()) session->summary(reply->add_worlds());
+  return grpc::Status::OK;
+}
+
+grpc::Status PhysicsService::GetWorld(grpc::ServerContext* context,
+                                      const v1::GetWorldRequest* request, v1::WorldInfo* reply) {
+  FULCRUM_CHECK_TOKEN(context);
+  auto session = registry_->find(request->world_id());
+  if (!session.ok()) return to_grpc_status(session.status());
+  (*session)->info(reply);
+  return grpc::Status::OK;
+}
+
+grpc::Status PhysicsService::DeleteWorld(grpc::ServerContext* context,
+                                         const v1::DeleteWorldRequest* request,
+                                         v1::DeleteWorldReply* reply) {
+  FULCRUM_CHECK_TOKEN(context);
+  return to_grpc_status(registry_->remove(request->world_id()));
+}
+
+grpc::Status PhysicsService::ApplyEdits(grpc::ServerContext* context,
+                                        const v1::ApplyEditsRequest* request,
+                                        v1::ApplyEditsReply* reply) {
+  FULCRUM_CHECK_TOKEN(context);
+  auto session = registry_->find(request->world_id());
+  if (!session.ok()) return to_grpc_status(session.status());
+  return to_grpc_status((*session)->apply_edits(
+      request->batch(), optional_tick(request->has_expected_tick(), request->expected_tick()),
+      reply));
+}
+
+grpc::Status PhysicsService::Step(grpc::ServerContext* context, const v1::StepRequest* request,
+                                  v1::StepReply* reply) {
+  FULCRUM_CHECK_TOKEN(context);
+  auto session = registry_->find(request->world_id());
+  if (!session.ok()) return to_grpc_status(session.status());
+  return to_grpc_status((*session)->step(
+      request->ticks(), optional_tick(request->has_expected_tick(), request->expected_tick()),
+      request->include_snapshot(), reply));
+}
+
+grpc::Status PhysicsService::GetSnapshot(grpc::ServerContext* context,
+                                         const v1::GetSnapshotRequest* request,
+                                         v1::GetSnapshotReply* reply) {
+  FULCRUM_CHECK_TOKEN(context);
+  auto session = registry_->find(request->world_id());
+  if (!session.ok()) return to_grpc_status(session.status());
+  (*session)->snapshot(reply);
+  return grpc::Status::OK;
+}
+
+grpc::Status PhysicsService::RestoreSnapshot(grpc::ServerContext* context,
+                                             const v1::RestoreSnapshotRequest* request,
+                                             v1::RestoreSnapshotReply* reply) {
+  FULCRUM_CHECK_TOKEN(context);
+  if (!request->has_snapshot()) {
+    return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "snapshot: required");
+  }
+  std::shared_ptr<Session> target;
+  if (request->world_id() != 0) {
+    auto found = registry_->find(request->world_id());
+    if (!found.ok()) return to_grpc_status(found.status());
+    target = *found;
+  }
+  Result<WorldSnapshot> records = decode_snapshot(request->snapshot(), registry_->limits());
+  if (!records.ok()) return to_grpc_status(records.status());
+  if (target) return to_grpc_status(target->restore(*records, reply));
+
+  // Fork: a new world continuing from the snapshot.
+  World world;
+  Status restored = world.restore(*records);
+  if (!restored.ok()) return to_grpc_status(restored.with_prefix("snapshot: "));
+  auto created =
+      registry_->create(request->name().empty() ? "fork" : request->name(), std::move(world));
+  if (!created.ok()) return to_grpc_status(created.status());
+  v1::WorldInfo info;
+  (*created)->summary(&info);
+  reply->set_world_id(info.world_id());
+  reply->set_tick(info.tick());
+  reply->set_state_hash(info.state_hash());
+  return grpc::Status::OK;
+}
+
+grpc::Status PhysicsService::Query(grpc::ServerContext* context, const v1::QueryRequest* request,
+                                   v1::QueryReply* reply) {
+  FULCRUM_CHECK_TOKEN(context);
+  auto session = registry_->find(request->world_id());
+  if (!session.ok()) return to_grpc_status(session.status());
+  return to_grpc_status((*session)->query(*request, reply));
+}
+
+grpc::ServerWriteReactor<v1::Frame>* PhysicsService::StreamFrames(
+    grpc::CallbackServerContext* context, const v1::StreamFramesRequest* request) {
+  grpc::Status auth = check_token(*context);
+  if (!auth.ok()) return new RefusedStream(auth);
+  if (shutting_down_) {
+    return new RefusedStream(grpc::Status(grpc::StatusCode::UNAVAILABLE, "the server is stopping"));
+  }
+  if (!v1::FrameBodies_IsValid(request->bodies())) {
+    return new RefusedStream(
+        grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                     "bodies: unknown FrameBodies value " + std::to_string(request->bodies())));
+  }
+  auto session = registry_->find(request->world_id());
+  if (!session.ok()) return new RefusedStream(to_grpc_status(session.status()));
+  return FrameStream::start(*session, *request);
+}
+
+}  // namespace fulcrum::server

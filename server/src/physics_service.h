@@ -1,0 +1,60 @@
+// The Physics gRPC service (proto/fulcrum/v1/service.proto). Each handler checks the caller's
+// token and the request, calls the world's Session, and maps the result to a grpc::Status in
+// one place (to_grpc_status). Unary calls use the synchronous API: stepping a world is blocking
+// work and belongs on the server's handler threads. StreamFrames uses the callback API, one
+// reactor per stream, so that an idle or slow watcher holds no thread.
+#pragma once
+
+#include <atomic>
+#include <string>
+
+#include <grpcpp/grpcpp.h>
+
+#include "fulcrum/status.h"
+#include "fulcrum/v1/service.grpc.pb.h"
+#include "session.h"
+
+namespace fulcrum::server {
+
+grpc::Status to_grpc_status(const Status& status);
+
+class PhysicsService final
+    : public v1::Physics::WithCallbackMethod_StreamFrames<v1::Physics::Service> {
+ public:
+  // An empty token turns authentication off.
+  PhysicsService(Registry* registry, std::string token);
+
+  grpc::Status CreateWorld(grpc::ServerContext* context, const v1::CreateWorldRequest* request,
+                           v1::CreateWorldReply* reply) override;
+  grpc::Status ListWorlds(grpc::ServerContext* context, const v1::ListWorldsRequest* request,
+                          v1::ListWorldsReply* reply) override;
+  grpc::Status GetWorld(grpc::ServerContext* context, const v1::GetWorldRequest* request,
+                        v1::WorldInfo* reply) override;
+  grpc::Status DeleteWorld(grpc::ServerContext* context, const v1::DeleteWorldRequest* request,
+                           v1::DeleteWorldReply* reply) override;
+  grpc::Status ApplyEdits(grpc::ServerContext* context, const v1::ApplyEditsRequest* request,
+                          v1::ApplyEditsReply* reply) override;
+  grpc::Status Step(grpc::ServerContext* context, const v1::StepRequest* request,
+                    v1::StepReply* reply) override;
+  grpc::Status GetSnapshot(grpc::ServerContext* context, const v1::GetSnapshotRequest* request,
+                           v1::GetSnapshotReply* reply) override;
+  grpc::Status RestoreSnapshot(grpc::ServerContext* context,
+                               const v1::RestoreSnapshotRequest* request,
+                               v1::RestoreSnapshotReply* reply) override;
+  grpc::Status Query(grpc::ServerContext* context, const v1::QueryRequest* request,
+                     v1::QueryReply* reply) override;
+  grpc::ServerWriteReactor<v1::Frame>* StreamFrames(
+      grpc::CallbackServerContext* context, const v1::StreamFramesRequest* request) override;
+
+  // New streams are refused and open ones end with UNAVAILABLE.
+  void begin_shutdown();
+
+ private:
+  grpc::Status check_token(const grpc::ServerContextBase& context) const;
+
+  Registry* registry_;
+  const std::string token_;
+  std::atomic<bool> shutting_down_{false};
+};
+
+}  // namespace fulcrum::server

@@ -1,0 +1,60 @@
+#include "server.h"
+
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/grpcpp.h>
+#include <grpcpp/health_check_service_interface.h>
+
+#include "physics_service.h"
+
+namespace fulcrum::server {
+
+Result<std::unique_ptr<Server>> Server::start(const ServerOptions& options) {
+  if (options.listen.empty() || options.listen.rfind(':') == std::string::npos) {
+    return invalid_argument("listen: expected HOST:PORT (got '" + options.listen + "')");
+  }
+  if (options.max_message_bytes <= 0) {
+    return invalid_argument("max_message_bytes: must be > 0");
+  }
+  grpc::EnableDefaultHealthCheckService(true);
+  if (options.reflection) grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+
+  std::unique_ptr<Server> server(new Server());
+  server->registry_ = std::make_unique<Registry>(options.limits);
+  server->service_ = std::make_unique<PhysicsService>(server->registry_.get(), options.token);
+
+  grpc::ServerBuilder builder;
+  int port = 0;
+  builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &port);
+  builder.RegisterService(server->service_.get());
+  builder.SetMaxReceiveMessageSize(options.max_message_bytes);
+  builder.SetMaxSendMessageSize(options.max_message_bytes);
+  server->server_ = builder.BuildAndStart();
+  if (!server->server_ || port == 0) {
+    return Status(StatusCode::kFailedPrecondition,
+                  "listen: cannot listen on " + options.listen + " (in use, or a bad address)");
+  }
+  server->port_ = port;
+  server->address_ =
+      options.listen.substr(0, options.listen.rfind(':')) + ":" + std::to_string(port);
+  server->server_->GetHealthCheckService()->SetServingStatus(true);
+  return server;
+}
+
+Server::~Server() {
+  if (!stopped_) shutdown(std::chrono::milliseconds(0));
+}
+
+void Server::shutdown(std::chrono::milliseconds grace) {
+  if (stopped_) return;
+  stopped_ = true;
+  server_->GetHealthCheckService()->SetServingStatus(false);
+  service_->begin_shutdown();
+  server_->Shutdown(std::chrono::system_clock::now() + grace);
+  server_->Wait();
+}
+
+void Server::wait() {
+  server_->Wait();
+}
+
+}  // namespace fulcrum::server

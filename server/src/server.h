@@ -1,0 +1,58 @@
+// A running Fulcrum server: the world registry, the Physics service, gRPC's health service
+// and (when Debian's gRPC ships it) server reflection, listening on one address. main.cpp wraps
+// it with flags and signals; tests start it in-process on port 0.
+#pragma once
+
+#include <chrono>
+#include <memory>
+#include <string>
+
+#include "fulcrum/status.h"
+#include "session.h"
+
+namespace grpc {
+class Server;
+}
+
+namespace fulcrum::server {
+
+class PhysicsService;
+
+struct ServerOptions {
+  std::string listen = "127.0.0.1:50051";  // host:port; port 0 picks a free one
+  Limits limits;
+  int max_message_bytes = 64 << 20;  // largest request or reply, bytes
+  std::string token;                 // bearer token; empty: no authentication
+  bool reflection = true;            // register the server reflection service
+};
+
+class Server {
+ public:
+  static Result<std::unique_ptr<Server>> start(const ServerOptions& options);
+  ~Server();
+  Server(const Server&) = delete;
+  Server& operator=(const Server&) = delete;
+
+  int port() const { return port_; }
+  // "HOST:PORT" with the port actually bound.
+  const std::string& address() const { return address_; }
+  Registry& registry() { return *registry_; }
+
+  // Health goes NOT_SERVING, open streams end (UNAVAILABLE), calls in progress get up to
+  // `grace` to finish before they are cancelled. Returns when the server has stopped.
+  void shutdown(std::chrono::milliseconds grace);
+  // Blocks until shutdown() has run (from another thread).
+  void wait();
+
+ private:
+  Server() = default;
+
+  std::unique_ptr<Registry> registry_;
+  std::unique_ptr<PhysicsService> service_;
+  std::unique_ptr<grpc::Server> server_;
+  int port_ = 0;
+  std::string address_;
+  bool stopped_ = false;
+};
+
+}  // namespace fulcrum::server

@@ -1,0 +1,145 @@
+// The engine side of the server: a registry of worlds, each in a Session that owns the World,
+// serializes access to it (one thread steps or edits it at a time) and publishes frames to its
+// watchers. No gRPC here: methods return fulcrum::Status and fill plain proto messages; the RPC
+// layer (physics_service) checks requests, calls these, and maps the Status to a grpc::Status.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "frames.h"
+#include "fulcrum/state.h"
+#include "fulcrum/status.h"
+#include "fulcrum/v1/frames.pb.h"
+#include "fulcrum/v1/service.pb.h"
+#include "fulcrum/world.h"
+
+namespace fulcrum::server {
+
+struct Limits {
+  int max_worlds = 64;                // worlds alive at once
+  int max_bodies = 100000;            // live bodies per world
+  uint32_t max_step_ticks = 1000000;  // ticks per Step call
+  size_t max_edits = 100000;          // edits per batch
+};
+
+// A reader of frames (the StreamFrames reactor). offer() must not block: it is called by the
+// thread stepping the world and keeps only the newest frame.
+class FrameSink {
+ public:
+  virtual ~FrameSink() = default;
+  virtual uint32_t every_ticks() const = 0;
+  virtual void offer(std::shared_ptr<const PublishedFrame> frame) = 0;
+  // The stream ends with this status (world deleted, server stopping).
+  virtual void close(const Status& status, bool shutting_down) = 0;
+};
+
+class Session {
+ public:
+  Session(uint64_t id, std::string name, World world, const Limits& limits);
+
+  uint64_t id() const { return id_; }
+  // The world now, settings included (waits while the world is being stepped).
+  void info(v1::WorldInfo* out);
+  // The world as of the end of its last call, without waiting for a Step in progress
+  // (ListWorlds); no settings.
+  void summary(v1::WorldInfo* out);
+
+  Status apply_edits(const v1::EditBatch& batch, std::optional<int64_t> expected_tick,
+                     v1::ApplyEditsReply* reply);
+  Status step(uint32_t ticks, std::optional<int64_t> expected_tick, bool include_snapshot,
+              v1::StepReply* reply);
+  void snapshot(v1::GetSnapshotReply* reply);
+  // Rollback: replaces the world with the snapshot (checked whole; unchanged on error).
+  Status restore(const WorldSnapshot& records, v1::RestoreSnapshotReply* reply);
+  Status query(const v1::QueryRequest& request, v1::QueryReply* reply);
+
+  // Watchers. subscribe() never waits for the world: the first frame is delivered by whoever
+  // holds the world next (at once when it is idle).
+  void subscribe(std::shared_ptr<FrameSink> sink);
+  void unsubscribe(const FrameSink* sink);
+  // Ends every stream (world deleted or server stopping).
+  void close_streams(const Status& status, bool shutting_down);
+
+ private:
+  struct Watcher {
+    std::weak_ptr<FrameSink> sink;
+    const FrameSink* key = nullptr;
+    uint32_t every = 1;
+    bool needs_first = true;  // has not received any frame yet
+  };
+
+  // Holds the world; on release, delivers first frames that arrived meanwhile (see
+  // deliver_first_frames). Every holder of mu_ but deliver_first_frames goes through it.
+  class Hold {
+   public:
+    explicit Hold(Session* s) : s_(s) { s_->mu_.lock(); }
+    ~Hold() {
+      s_->mu_.unlock();
+      s_->deliver_first_frames();
+    }
+    Hold(const Hold&) = delete;
+    Hold& operator=(const Hold&) = delete;
+
+   private:
+    Session* s_;
+  };
+
+  // Called with mu_ held, after a tick: offers a frame to watchers due at this tick.
+  void publish_tick_locked();
+  // Called with mu_ held after a change that is not a step (edit, restore), or at the end of a
+  // Step: every watcher gets the world as it now is.
+  void publish_all_locked();
+  // Gives waiting watchers their first frame if the world is free; see subscribe().
+  void deliver_first_frames();
+
+  // Copies tick, hash and counts into summary_; called with mu_ held at the end of every change.
+  void refresh_summary_locked(uint64_t state_hash);
+
+  const uint64_t id_;
+  const std::string name_;
+  const Limits limits_;
+
+  std::mutex mu_;  // guards world_ and epoch_; held for a whole Step
+  World world_;
+  uint64_t epoch_ = 0;
+
+  std::mutex summary_mu_;  // guards summary_ (never held with another lock taken after it)
+  v1::WorldInfo summary_;  // without settings or watchers
+
+  std::mutex watchers_mu_;  // guards watchers_; taken after mu_ when both are held
+  std::vector<Watcher> watchers_;
+  std::atomic<bool> any_need_first_{false};
+};
+
+// Unwraps and checks a snapshot file and the body limit, before any world is touched.
+Result<WorldSnapshot> decode_snapshot(const v1::SnapshotFile& file, const Limits& limits);
+
+class Registry {
+ public:
+  explicit Registry(const Limits& limits) : limits_(limits) {}
+
+  const Limits& limits() const { return limits_; }
+  // Checks the body limit, then adds the world (RESOURCE_EXHAUSTED when full).
+  Result<std::shared_ptr<Session>> create(std::string name, World world);
+  // NOT_FOUND naming `field` when there is no such world.
+  Result<std::shared_ptr<Session>> find(uint64_t id, const char* field = "world_id") const;
+  Status remove(uint64_t id);
+  std::vector<std::shared_ptr<Session>> list() const;
+  // Ends every stream of every world (shutdown).
+  void close_all_streams(const Status& status);
+
+ private:
+  const Limits limits_;
+  mutable std::mutex mu_;
+  std::map<uint64_t, std::shared_ptr<Session>> worlds_;
+  uint64_t next_id_ = 1;
+};
+
+}  // namespace fulcrum::server

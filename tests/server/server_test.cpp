@@ -1,0 +1,487 @@
+// The server in-process on an ephemeral loopback port: determinism across the wire, refused
+// requests that leave the world untouched, rollback and fork, many stream readers, slow
+// readers, limits, authentication and shutdown.
+#include <grpcpp/generic/generic_stub.h>
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <future>
+#include <limits>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+#include "fulcrum/client.h"
+#include "fulcrum/scene.h"
+#include "fulcrum/v1/service.grpc.pb.h"
+#include "scene_convert.h"
+#include "server.h"
+
+namespace fulcrum {
+namespace {
+
+using server::Server;
+using server::ServerOptions;
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+const std::string& pyramid_json() {
+  static const std::string json = read_text(FULCRUM_SCENES_DIR "/pyramid.json");
+  return json;
+}
+
+// State hashes of a local pyramid world after each tick: hashes[t] is the hash at tick t.
+const std::vector<uint64_t>& local_pyramid_hashes(int ticks) {
+  static std::vector<uint64_t> hashes;
+  if (static_cast<int>(hashes.size()) <= ticks) {
+    Result<SceneDef> scene = parse_scene_json(pyramid_json());
+    EXPECT_TRUE(scene.ok());
+    Result<World> world = build_world(*scene);
+    EXPECT_TRUE(world.ok());
+    hashes.assign(1, world->state_hash());
+    for (int t = 1; t <= ticks; ++t) {
+      world->step();
+      hashes.push_back(world->state_hash());
+    }
+  }
+  return hashes;
+}
+
+class ServerTest : public ::testing::Test {
+ protected:
+  void start(ServerOptions options = {}) {
+    options.listen = "127.0.0.1:0";
+    auto started = Server::start(options);
+    ASSERT_TRUE(started.ok()) << started.status().message();
+    server_ = std::move(started).value();
+    token_ = options.token;
+    channel_ = grpc::CreateChannel(server_->address(), grpc::InsecureChannelCredentials());
+    stub_ = v1::Physics::NewStub(channel_);
+    client::ClientOptions copts;
+    copts.address = server_->address();
+    copts.token = options.token;
+    client_ = client::Client::connect(copts);
+  }
+
+  std::unique_ptr<grpc::ClientContext> context(const std::string& token = "<default>") {
+    auto c = std::make_unique<grpc::ClientContext>();
+    c->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+    const std::string t = token == "<default>" ? token_ : token;
+    if (!t.empty()) c->AddMetadata("authorization", "Bearer " + t);
+    return c;
+  }
+
+  uint64_t create_pyramid() {
+    Result<client::WorldSummary> w = client_->create_world_json(pyramid_json());
+    EXPECT_TRUE(w.ok()) << w.status().message();
+    return w.ok() ? w->id : 0;
+  }
+
+  v1::WorldInfo info(uint64_t world) {
+    v1::GetWorldRequest request;
+    request.set_world_id(world);
+    v1::WorldInfo reply;
+    auto c = context();
+    EXPECT_TRUE(stub_->GetWorld(c.get(), request, &reply).ok());
+    return reply;
+  }
+
+  grpc::Status apply(uint64_t world, const v1::EditBatch& batch,
+                     std::optional<int64_t> expected_tick = {}) {
+    v1::ApplyEditsRequest request;
+    request.set_world_id(world);
+    *request.mutable_batch() = batch;
+    if (expected_tick) request.set_expected_tick(*expected_tick);
+    v1::ApplyEditsReply reply;
+    auto c = context();
+    return stub_->ApplyEdits(c.get(), request, &reply);
+  }
+
+  std::unique_ptr<Server> server_;
+  std::string token_;
+  std::shared_ptr<grpc::Channel> channel_;
+  std::unique_ptr<v1::Physics::Stub> stub_;
+  std::unique_ptr<client::Client> client_;
+};
+
+v1::Edit set_velocity(int index, uint32_t generation, double vx, double vy) {
+  v1::Edit e;
+  e.mutable_set_velocity()->mutable_body()->set_index(index);
+  e.mutable_set_velocity()->mutable_body()->set_generation(generation);
+  e.mutable_set_velocity()->mutable_linear()->set_x(vx);
+  e.mutable_set_velocity()->mutable_linear()->set_y(vy);
+  return e;
+}
+
+TEST_F(ServerTest, StepsMatchALocalWorldBitForBit) {
+  start();
+  const uint64_t id = create_pyramid();
+  const auto& expected = local_pyramid_hashes(240);
+  EXPECT_EQ(info(id).state_hash(), expected[0]);
+  EXPECT_EQ(info(id).body_count(), 211);
+  int64_t tick = 0;
+  for (uint32_t n : {1u, 59u, 100u, 80u}) {
+    Result<client::StepResult> r = client_->step(id, n);
+    ASSERT_TRUE(r.ok()) << r.status().message();
+    tick += n;
+    EXPECT_EQ(r->tick, tick);
+    EXPECT_EQ(r->state_hash, expected[tick]) << "tick " << tick;
+  }
+}
+
+TEST_F(ServerTest, RefusedRequestsLeaveTheWorldUnchanged) {
+  start();
+  const uint64_t id = create_pyramid();
+  ASSERT_TRUE(client_->step(id, 10).ok());
+  const uint64_t hash = info(id).state_hash();
+
+  {  // NaN in an edit, after a valid one: the batch is refused whole.
+    v1::EditBatch batch;
+    *batch.add_edits() = set_velocity(5, 1, 1.0, 0.0);
+    *batch.add_edits() = set_velocity(6, 1, std::numeric_limits<double>::quiet_NaN(), 0.0);
+    grpc::Status st = apply(id, batch);
+    EXPECT_EQ(st.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    EXPECT_NE(st.error_message().find("batch.edits[1].set_velocity"), std::string::npos)
+        << st.error_message();
+  }
+  {  // Unknown world.
+    v1::EditBatch batch;
+    *batch.add_edits() = set_velocity(5, 1, 1.0, 0.0);
+    grpc::Status st = apply(9999, batch);
+    EXPECT_EQ(st.error_code(), grpc::StatusCode::NOT_FOUND);
+    EXPECT_NE(st.error_message().find("world_id"), std::string::npos) << st.error_message();
+  }
+  {  // Empty batch.
+    grpc::Status st = apply(id, v1::EditBatch());
+    EXPECT_EQ(st.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    EXPECT_NE(st.error_message().find("batch.edits"), std::string::npos) << st.error_message();
+  }
+  {  // expected_tick mismatch, on edits and on steps.
+    v1::EditBatch batch;
+    *batch.add_edits() = set_velocity(5, 1, 1.0, 0.0);
+    grpc::Status st = apply(id, batch, 3);
+    EXPECT_EQ(st.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+    EXPECT_NE(st.error_message().find("expected_tick"), std::string::npos);
+    Result<client::StepResult> r = client_->step(id, 1, 9);
+    EXPECT_EQ(r.status().code(), StatusCode::kFailedPrecondition);
+  }
+  {  // Zero ticks.
+    Result<client::StepResult> r = client_->step(id, 0);
+    EXPECT_EQ(r.status().code(), StatusCode::kInvalidArgument);
+    EXPECT_NE(r.status().message().find("ticks"), std::string::npos);
+  }
+  EXPECT_EQ(info(id).state_hash(), hash);
+  EXPECT_EQ(info(id).tick(), 10);
+
+  {  // A stale handle: create a body, destroy it, then address the old handle.
+    v1::EditBatch create;
+    v1::Body* body = create.add_edits()->mutable_create_body();
+    body->set_type(v1::BODY_TYPE_DYNAMIC);
+    body->mutable_position()->set_y(40);
+    body->add_shapes()->mutable_circle()->set_radius(0.5);
+    Result<client::EditResult> made = client_->apply_edits(id, create, 10);
+    ASSERT_TRUE(made.ok()) << made.status().message();
+    ASSERT_EQ(made->bodies.size(), 1u);
+    const BodyId stale = made->bodies[0];
+    v1::EditBatch destroy;
+    v1::Handle* h = destroy.add_edits()->mutable_destroy_body();
+    h->set_index(stale.index);
+    h->set_generation(stale.generation);
+    ASSERT_TRUE(client_->apply_edits(id, destroy).ok());
+    const uint64_t after = info(id).state_hash();
+    v1::EditBatch poke;
+    *poke.add_edits() = set_velocity(stale.index, stale.generation, 1.0, 0.0);
+    grpc::Status st = apply(id, poke);
+    EXPECT_EQ(st.error_code(), grpc::StatusCode::NOT_FOUND) << st.error_message();
+    EXPECT_EQ(info(id).state_hash(), after);
+  }
+}
+
+TEST_F(ServerTest, RollbackAndForkContinueBitForBit) {
+  start();
+  const uint64_t id = create_pyramid();
+  const auto& expected = local_pyramid_hashes(120);
+  ASSERT_TRUE(client_->step(id, 60).ok());
+  Result<client::SnapshotResult> snap = client_->get_snapshot(id);
+  ASSERT_TRUE(snap.ok());
+  EXPECT_EQ(snap->tick, 60);
+  EXPECT_EQ(snap->state_hash, expected[60]);
+  ASSERT_TRUE(client_->step(id, 60).ok());
+
+  Result<client::RestoreResult> back = client_->restore(id, snap->bytes);
+  ASSERT_TRUE(back.ok()) << back.status().message();
+  EXPECT_EQ(back->world_id, id);
+  EXPECT_EQ(back->tick, 60);
+  Result<client::StepResult> again = client_->step(id, 60);
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ(again->state_hash, expected[120]);
+
+  Result<client::RestoreResult> fork = client_->restore(0, snap->bytes, "fork");
+  ASSERT_TRUE(fork.ok()) << fork.status().message();
+  EXPECT_NE(fork->world_id, id);
+  Result<client::StepResult> forked = client_->step(fork->world_id, 60);
+  ASSERT_TRUE(forked.ok());
+  EXPECT_EQ(forked->state_hash, expected[120]);
+
+  // A damaged snapshot is refused and the world keeps its state.
+  std::string damaged = snap->bytes;
+  damaged[damaged.size() / 2] ^= 0x5a;
+  Result<client::RestoreResult> bad = client_->restore(id, damaged);
+  EXPECT_FALSE(bad.ok());
+  EXPECT_EQ(info(id).state_hash(), expected[120]);
+}
+
+TEST_F(ServerTest, TenReadersSeeIncreasingTicksAndMatchingHashes) {
+  start();
+  const uint64_t id = create_pyramid();
+  const int kTicks = 180;
+  const auto& expected = local_pyramid_hashes(kTicks);
+
+  struct Reader {
+    std::mutex mu;
+    std::vector<int64_t> ticks;
+    int mismatches = 0;
+    std::unique_ptr<client::Subscription> sub;
+  };
+  std::vector<std::unique_ptr<Reader>> readers;
+  for (int i = 0; i < 10; ++i) {
+    auto reader = std::make_unique<Reader>();
+    Reader* r = reader.get();
+    client::SubscribeOptions options;
+    options.every_ticks = 1 + i % 3;
+    options.bodies = i % 2 == 0 ? client::FrameBodies::kChanged : client::FrameBodies::kAll;
+    auto sub = client_->subscribe(id, options, [r, &expected](const client::Frame& f) {
+      std::lock_guard<std::mutex> lock(r->mu);
+      r->ticks.push_back(f.tick);
+      if (f.tick < 0 || f.tick >= static_cast<int64_t>(expected.size()) ||
+          f.state_hash != expected[f.tick]) {
+        ++r->mismatches;
+      }
+    });
+    ASSERT_TRUE(sub.ok());
+    r->sub = std::move(sub).value();
+    readers.push_back(std::move(reader));
+  }
+  for (int t = 0; t < kTicks; t += 10) ASSERT_TRUE(client_->step(id, 10).ok());
+
+  // Every reader eventually sees the last tick (or the last tick due at its interval).
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  for (auto& r : readers) {
+    for (;;) {
+      {
+        std::lock_guard<std::mutex> lock(r->mu);
+        if (!r->ticks.empty() && r->ticks.back() >= kTicks - 2) break;
+      }
+      ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "a reader never caught up";
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  }
+  for (auto& r : readers) {
+    r->sub->cancel();
+    std::lock_guard<std::mutex> lock(r->mu);
+    EXPECT_EQ(r->mismatches, 0);
+    for (size_t i = 1; i < r->ticks.size(); ++i) EXPECT_LT(r->ticks[i - 1], r->ticks[i]);
+  }
+}
+
+TEST_F(ServerTest, ChangedFramesRebuildTheWorld) {
+  start();
+  const uint64_t id = create_pyramid();
+  std::mutex mu;
+  std::map<int32_t, client::BodyFrame> bodies;  // the reader's copy, by index
+  int64_t last_tick = -1;
+  client::SubscribeOptions options;
+  options.bodies = client::FrameBodies::kChanged;
+  auto sub = client_->subscribe(id, options, [&](const client::Frame& f) {
+    std::lock_guard<std::mutex> lock(mu);
+    if (f.full) bodies.clear();
+    for (const BodyId& gone : f.destroyed) bodies.erase(gone.index);
+    for (const client::BodyFrame& b : f.bodies) bodies[b.id.index] = b;
+    last_tick = f.tick;
+  });
+  ASSERT_TRUE(sub.ok());
+  for (int i = 0; i < 12; ++i) ASSERT_TRUE(client_->step(id, 5).ok());
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (true) {
+    {
+      std::lock_guard<std::mutex> lock(mu);
+      if (last_tick == 60) break;
+    }
+    ASSERT_LT(std::chrono::steady_clock::now(), deadline);
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  (*sub)->cancel();
+
+  Result<SceneDef> scene = parse_scene_json(pyramid_json());
+  Result<World> local = build_world(*scene);
+  for (int t = 0; t < 60; ++t) local->step();
+  std::lock_guard<std::mutex> lock(mu);
+  ASSERT_EQ(bodies.size(), static_cast<size_t>(local->body_count()));
+  for (BodyId id_local : local->bodies()) {
+    const BodyState s = *local->body_state(id_local);
+    const client::BodyFrame& b = bodies.at(id_local.index);
+    EXPECT_EQ(b.position.x(), s.transform.p.x());
+    EXPECT_EQ(b.position.y(), s.transform.p.y());
+    EXPECT_EQ(b.linear_velocity.x(), s.linear_velocity.x());
+    EXPECT_EQ(b.awake, s.awake);
+  }
+}
+
+// A reader that takes nothing until the world has stepped 400 ticks: the steps must finish
+// anyway (the world never waits for a reader), and once the gRPC transport's flow-control
+// window is full the frames it could not take are coalesced into the newest one. Frames of a
+// 1830-body pyramid are about 130 kB, so 400 of them overflow any window gRPC grants.
+TEST_F(ServerTest, AStalledReaderIsCoalescedAndDoesNotHoldTheWorld) {
+  start();
+  Result<client::WorldSummary> big = client_->create_world_json(
+      R"({"name": "big", "settings": {"gravity": {"x": 0, "y": -10}},
+          "builders": [{"ground": {"halfWidth": 100}}, {"pyramid": {"base": 60}}]})");
+  ASSERT_TRUE(big.ok()) << big.status().message();
+  const uint64_t id = big->id;
+  std::promise<void> stepped;
+  std::shared_future<void> released = stepped.get_future().share();
+  std::atomic<int64_t> last_tick{-1};
+  std::atomic<uint64_t> skipped{0};
+  std::atomic<int> frames{0};
+  client::SubscribeOptions options;
+  options.bodies = client::FrameBodies::kAll;
+  auto sub = client_->subscribe(id, options, [&](const client::Frame& f) {
+    released.wait();
+    last_tick = f.tick;
+    skipped += f.skipped_frames;
+    ++frames;
+  });
+  ASSERT_TRUE(sub.ok());
+  const int kTicks = 400;
+  for (int i = 0; i < kTicks; ++i) ASSERT_TRUE(client_->step(id, 1).ok());
+  stepped.set_value();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (last_tick.load() != kTicks) {
+    ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "the last frame never arrived";
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  std::printf("stalled reader: %d frames delivered for %d ticks, %llu coalesced\n", frames.load(),
+              kTicks, static_cast<unsigned long long>(skipped.load()));
+  EXPECT_GT(skipped.load(), 0u);
+  EXPECT_LT(frames.load(), kTicks);
+  (*sub)->cancel();
+}
+
+TEST_F(ServerTest, DeletingAWorldEndsItsStreams) {
+  start();
+  const uint64_t id = create_pyramid();
+  auto sub = client_->subscribe(id, {}, [](const client::Frame&) {});
+  ASSERT_TRUE(sub.ok());
+  ASSERT_TRUE(client_->step(id, 2).ok());
+  ASSERT_TRUE(client_->delete_world(id).ok());
+  Status end = (*sub)->wait();
+  EXPECT_EQ(end.code(), StatusCode::kNotFound) << end.message();
+  EXPECT_EQ(client_->get_world(id).status().code(), StatusCode::kNotFound);
+  EXPECT_EQ(client_->delete_world(id).code(), StatusCode::kNotFound);
+}
+
+TEST_F(ServerTest, LimitsAreEnforced) {
+  ServerOptions options;
+  options.limits.max_worlds = 2;
+  options.limits.max_bodies = 250;
+  options.limits.max_step_ticks = 100;
+  start(options);
+  const uint64_t a = create_pyramid();
+  create_pyramid();
+  Result<client::WorldSummary> third = client_->create_world_json(pyramid_json());
+  EXPECT_EQ(third.status().code(), StatusCode::kResourceExhausted);
+  EXPECT_EQ(client_->step(a, 101).status().code(), StatusCode::kResourceExhausted);
+  v1::EditBatch many;
+  for (int i = 0; i < 40; ++i) {
+    v1::Body* b = many.add_edits()->mutable_create_body();
+    b->set_type(v1::BODY_TYPE_DYNAMIC);
+    b->add_shapes()->mutable_circle()->set_radius(0.5);
+  }
+  EXPECT_EQ(client_->apply_edits(a, many).status().code(), StatusCode::kResourceExhausted);
+  EXPECT_EQ(info(a).body_count(), 211);
+}
+
+TEST_F(ServerTest, QueriesSeeTheWorld) {
+  start();
+  const uint64_t id = create_pyramid();
+  Result<std::optional<RayHit>> hit = client_->ray_cast_closest(id, Vec2(0, 50), Vec2(0, -100));
+  ASSERT_TRUE(hit.ok()) << hit.status().message();
+  ASSERT_TRUE(hit->has_value());
+  EXPECT_NEAR((*hit)->point.y(), 20.0, 0.1);  // the top box of a 20-row pyramid of 1 m boxes
+  Result<std::vector<client::ShapeHit>> boxes =
+      client_->overlap_aabb(id, AABB{Vec2(-0.2, 0.2), Vec2(0.2, 0.4)});
+  ASSERT_TRUE(boxes.ok());
+  EXPECT_FALSE(boxes->empty());
+  Result<std::vector<client::ShapeHit>> nothing = client_->overlap_point(id, Vec2(0, 100));
+  ASSERT_TRUE(nothing.ok());
+  EXPECT_TRUE(nothing->empty());
+  Result<std::optional<RayHit>> bad = client_->ray_cast_closest(id, Vec2(0, 50), Vec2(0, 0));
+  EXPECT_EQ(bad.status().code(), StatusCode::kInvalidArgument);
+}
+
+TEST_F(ServerTest, TokenIsRequiredWhenSet) {
+  ServerOptions options;
+  options.token = "s3cret";
+  start(options);
+  v1::ListWorldsReply reply;
+  auto none = context("");
+  EXPECT_EQ(stub_->ListWorlds(none.get(), {}, &reply).error_code(),
+            grpc::StatusCode::UNAUTHENTICATED);
+  auto wrong = context("guess");
+  EXPECT_EQ(stub_->ListWorlds(wrong.get(), {}, &reply).error_code(),
+            grpc::StatusCode::UNAUTHENTICATED);
+  auto right = context("s3cret");
+  EXPECT_TRUE(stub_->ListWorlds(right.get(), {}, &reply).ok());
+  EXPECT_NE(create_pyramid(), 0u);  // the client library sends the token
+
+  // Streams check it too.
+  client::ClientOptions anonymous;
+  anonymous.address = server_->address();
+  auto stranger = client::Client::connect(anonymous);
+  auto sub = stranger->subscribe(1, {}, [](const client::Frame&) {});
+  ASSERT_TRUE(sub.ok());
+  Status end = (*sub)->wait();
+  EXPECT_NE(end.message().find("UNAUTHENTICATED"), std::string::npos) << end.message();
+
+  // Health checks need no token: HealthCheckRequest{} is empty bytes; SERVING is 08 01.
+  grpc::GenericStub generic(channel_);
+  grpc::ClientContext health_context;
+  grpc::Slice empty{std::string()};
+  grpc::ByteBuffer request(&empty, 1), response;
+  std::promise<grpc::Status> done;
+  generic.UnaryCall(&health_context, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request,
+                    &response, [&](grpc::Status s) { done.set_value(s); });
+  grpc::Status health = done.get_future().get();
+  ASSERT_TRUE(health.ok()) << health.error_message();
+  std::vector<grpc::Slice> slices;
+  ASSERT_TRUE(response.Dump(&slices).ok());
+  std::string bytes;
+  for (const auto& s : slices) bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
+  EXPECT_EQ(bytes, std::string("\x08\x01", 2));
+}
+
+TEST_F(ServerTest, ShutdownEndsStreams) {
+  start();
+  const uint64_t id = create_pyramid();
+  auto sub = client_->subscribe(id, {}, [](const client::Frame&) {});
+  ASSERT_TRUE(sub.ok());
+  ASSERT_TRUE(client_->step(id, 1).ok());
+  const auto t0 = std::chrono::steady_clock::now();
+  server_->shutdown(std::chrono::milliseconds(2000));
+  Status end = (*sub)->wait();
+  EXPECT_NE(end.message().find("UNAVAILABLE"), std::string::npos) << end.message();
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(2));
+}
+
+}  // namespace
+}  // namespace fulcrum
