@@ -470,6 +470,47 @@ TEST_F(ServerTest, TokenIsRequiredWhenSet) {
   EXPECT_EQ(bytes, std::string("\x08\x01", 2));
 }
 
+// Server reflection lists the Physics service (ServerReflectionRequest{list_services: ""} is
+// the bytes 3a 00; the reply names each service).
+TEST_F(ServerTest, ReflectionListsThePhysicsService) {
+  start();
+  class Lister : public grpc::ClientBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer> {
+   public:
+    void start() {
+      StartWrite(&request_, grpc::WriteOptions().set_last_message());
+      StartRead(&response_);
+      StartCall();
+    }
+    void OnReadDone(bool ok) override {
+      if (ok) {
+        std::vector<grpc::Slice> slices;
+        if (response_.Dump(&slices).ok()) {
+          for (const auto& s : slices) {
+            text_.append(reinterpret_cast<const char*>(s.begin()), s.size());
+          }
+        }
+      }
+    }
+    void OnDone(const grpc::Status& status) override { done_.set_value(status); }
+    grpc::Slice slice_{std::string("\x3a\x00", 2)};
+    grpc::ByteBuffer request_{&slice_, 1};
+    grpc::ByteBuffer response_;
+    std::string text_;
+    std::promise<grpc::Status> done_;
+  } lister;
+  grpc::GenericStub generic(channel_);
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+  generic.PrepareBidiStreamingCall(&context,
+                                   "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo",
+                                   grpc::StubOptions(), &lister);
+  lister.start();
+  grpc::Status status = lister.done_.get_future().get();
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_NE(lister.text_.find("fulcrum.v1.Physics"), std::string::npos);
+  EXPECT_NE(lister.text_.find("grpc.health.v1.Health"), std::string::npos);
+}
+
 TEST_F(ServerTest, ShutdownEndsStreams) {
   start();
   const uint64_t id = create_pyramid();
