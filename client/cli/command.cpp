@@ -1,6 +1,8 @@
 #include "command.h"
 
 #include <algorithm>
+#include <cinttypes>
+#include <cstdio>
 #include <filesystem>
 #include <ostream>
 
@@ -8,6 +10,12 @@
 #include "scene_convert.h"
 
 namespace fulcrum::cli {
+
+std::string hex64(uint64_t value) {
+  char buf[17];
+  std::snprintf(buf, sizeof(buf), "%016" PRIx64, value);
+  return buf;
+}
 
 int Invocation::usage_error(const std::string& message) const {
   err << "fulcrum " << command.name << ": " << message << "\n"

@@ -3,6 +3,7 @@
 // --help, and calls run. Adding a subcommand means adding a file and a row in commands().
 #pragma once
 
+#include <cstdint>
 #include <iosfwd>
 #include <span>
 #include <string>
@@ -63,6 +64,9 @@ struct LoadedScene {
 // (neither or both given) or kExitError (the scene is bad), having printed why, and returns
 // false; returns true on success.
 bool load_scene_from_args(const Invocation& inv, LoadedScene* loaded, int* exit_code);
+
+// A state hash as 16 hex digits, the way every subcommand prints it.
+std::string hex64(uint64_t value);
 
 // The subcommands.
 int run_sim(const Invocation& inv);

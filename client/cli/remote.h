@@ -28,7 +28,6 @@ std::unique_ptr<client::Client> connect_from_args(const Invocation& inv, int* ex
 // *exit_code and returns nullopt.
 std::optional<uint64_t> world_arg(const Invocation& inv, size_t index, int* exit_code);
 
-std::string hex64(uint64_t value);
 // Reads a whole file; nullopt (and *error) when it cannot.
 std::optional<std::string> read_file(const std::string& path, std::string* error);
 

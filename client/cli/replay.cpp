@@ -12,12 +12,6 @@ namespace fulcrum::cli {
 
 namespace {
 
-std::string hex(uint64_t h) {
-  char buf[20];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
-  return buf;
-}
-
 int record(const Invocation& inv) {
   std::string error;
   const std::optional<std::string> ticks_text = inv.args.value("ticks");
@@ -69,7 +63,7 @@ int record(const Invocation& inv) {
   Status st = (*writer)->close();
   if (!st.ok()) return inv.fail(st.message());
   inv.out << "recorded " << *ticks << " ticks of " << loaded.label << " to " << *out
-          << "\nfinal tick " << world->tick() << ", state hash " << hex(world->state_hash())
+          << "\nfinal tick " << world->tick() << ", state hash " << hex64(world->state_hash())
           << "\n";
   return kExitOk;
 }
@@ -90,7 +84,7 @@ int verify(const Invocation& inv, const std::string& path) {
     return kExitError;
   }
   inv.out << path << ": OK: " << report->ticks_checked << " ticks match, final tick "
-          << report->final_tick << ", state hash " << hex(report->final_hash) << "\n";
+          << report->final_tick << ", state hash " << hex64(report->final_hash) << "\n";
   return kExitOk;
 }
 
@@ -122,7 +116,7 @@ int info(const Invocation& inv, const std::string& path) {
           << " ticks)\n";
   if (!r.ticks.empty()) {
     inv.out << "final tick  " << r.ticks.back().tick() << "\n"
-            << "final hash  " << hex(r.ticks.back().state_hash()) << "\n";
+            << "final hash  " << hex64(r.ticks.back().state_hash()) << "\n";
   }
   if (r.truncated) inv.out << "truncated   yes (cut off mid-write; read up to the last tick)\n";
   return kExitOk;

@@ -14,12 +14,6 @@
 namespace fulcrum::cli {
 namespace {
 
-std::string hex64(uint64_t v) {
-  char buf[17];
-  std::snprintf(buf, sizeof(buf), "%016" PRIx64, v);
-  return buf;
-}
-
 std::string num(double v) {
   char buf[32];
   std::snprintf(buf, sizeof(buf), "%.6g", v);
