@@ -51,7 +51,6 @@ void body_to_proto(const Body& b, v1::SnapshotBody* out) {
   for (int ji : b.joints) out->add_joints(ji);
   out->set_contact_list(b.contact_list);
   out->set_contact_count(b.contact_count);
-  out->set_awake_slot(b.awake_slot);
 }
 
 Body body_from_proto(const v1::SnapshotBody& p) {
@@ -85,7 +84,6 @@ Body body_from_proto(const v1::SnapshotBody& p) {
   b.joints.assign(p.joints().begin(), p.joints().end());
   b.contact_list = p.contact_list();
   b.contact_count = p.contact_count();
-  b.awake_slot = p.awake_slot();
   return b;
 }
 
@@ -125,7 +123,6 @@ void shape_to_proto(const Shape& s, const AABB& box, v1::SnapshotShape* out) {
   out->set_user_data(s.user_data);
   put(box.lower, out->mutable_box_lower());
   put(box.upper, out->mutable_box_upper());
-  out->set_in_move_buffer(s.in_move_buffer);
 }
 
 Status shape_from_proto(const v1::SnapshotShape& p, const std::string& path, Shape* s, AABB* box) {
@@ -171,7 +168,6 @@ Status shape_from_proto(const v1::SnapshotShape& p, const std::string& path, Sha
   s->filter = Filter{p.filter().category_bits(), p.filter().mask_bits(), p.filter().group_index()};
   s->is_sensor = p.is_sensor();
   s->user_data = p.user_data();
-  s->in_move_buffer = p.in_move_buffer();
   *box = AABB{get(p.box_lower()), get(p.box_upper())};
   return {};
 }
@@ -422,6 +418,16 @@ Result<WorldSnapshot> snapshot_from_proto(const v1::Snapshot& p) {
   }
   s.awake_bodies = ints(p.awake_bodies());
   s.move_buffer = ints(p.move_buffer());
+  // Derived from the lists; indices out of range are left for World::restore to refuse.
+  for (size_t k = 0; k < s.awake_bodies.size(); ++k) {
+    int bi = s.awake_bodies[k];
+    if (bi >= 0 && static_cast<size_t>(bi) < s.bodies.size()) {
+      s.bodies[bi].awake_slot = static_cast<int>(k);
+    }
+  }
+  for (int si : s.move_buffer) {
+    if (si >= 0 && static_cast<size_t>(si) < s.shapes.size()) s.shapes[si].in_move_buffer = true;
+  }
   s.state_hash = p.state_hash();
   return s;
 }
@@ -491,7 +497,6 @@ std::string body_definition(v1::SnapshotBody b) {
   b.clear_torque();
   b.clear_sleep_time();
   b.clear_awake();
-  b.clear_awake_slot();
   b.clear_contact_list();
   b.clear_contact_count();
   return b.SerializeAsString();
@@ -558,7 +563,6 @@ v1::SnapshotDelta make_delta(const v1::Snapshot& base, const v1::Snapshot& next)
         if (!same_bits(a.force().y(), b.force().y())) m->set_force_y(b.force().y());
         if (!same_bits(a.torque(), b.torque())) m->set_torque(b.torque());
         if (a.awake() != b.awake()) m->set_awake(b.awake());
-        if (a.awake_slot() != b.awake_slot()) m->set_awake_slot(b.awake_slot());
         if (a.contact_list() != b.contact_list()) m->set_contact_list(b.contact_list());
         if (a.contact_count() != b.contact_count()) m->set_contact_count(b.contact_count());
         continue;
@@ -684,7 +688,6 @@ Result<v1::Snapshot> apply_delta(const v1::Snapshot& base, const v1::SnapshotDel
     if (m.has_force_y()) b.mutable_force()->set_y(m.force_y());
     if (m.has_torque()) b.set_torque(m.torque());
     if (m.has_awake()) b.set_awake(m.awake());
-    if (m.has_awake_slot()) b.set_awake_slot(m.awake_slot());
     if (m.has_contact_list()) b.set_contact_list(m.contact_list());
     if (m.has_contact_count()) b.set_contact_count(m.contact_count());
   }
