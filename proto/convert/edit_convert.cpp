@@ -125,9 +125,7 @@ Status apply_one(World* w, const v1::Edit& e, const std::string& path, EditOutco
     case v1::Edit::kSetGravity: {
       WorldSettings s = w->settings();
       s.gravity = get(e.set_gravity());
-      Status st = w->set_settings(s);
-      if (!st.ok()) return invalid_argument("must be finite");
-      return {};
+      return w->set_settings(s);
     }
     case v1::Edit::kSetSettings: {
       WorldSettings s = w->settings();
