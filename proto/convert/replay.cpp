@@ -237,16 +237,14 @@ Result<ReplayReport> verify_replay(const ReplayContents& replay) {
                                          hex(t.state_hash())
                                    : "state hash matches but the keyframe differs";
     }
-    if (diverged_at != replay.ticks.size()) {
-      // Past the divergence: run on to the first keyframe to say what differs.
-      if (!keyframe_diff.empty() || (t.has_keyframe() && diverged_at <= i)) {
-        report.detail += t.tick() == report.first_divergent_tick
-                             ? "; first difference: "
-                             : "; no keyframe at that tick; at the next keyframe (tick " +
-                                   std::to_string(t.tick()) + ") the first difference is: ";
-        report.detail += keyframe_diff.empty() ? "(none in the records)" : keyframe_diff;
-        return report;
-      }
+    // Once diverged, run on to the first keyframe to say what differs.
+    if (diverged_at != replay.ticks.size() && t.has_keyframe()) {
+      report.detail += t.tick() == report.first_divergent_tick
+                           ? "; first difference: "
+                           : "; no keyframe at that tick; at the next keyframe (tick " +
+                                 std::to_string(t.tick()) + ") the first difference is: ";
+      report.detail += keyframe_diff.empty() ? "(none in the records)" : keyframe_diff;
+      return report;
     }
   }
   report.ok = diverged_at == replay.ticks.size();
