@@ -570,7 +570,11 @@ class ConfinedProbe : public Probe {
 
 // Cases 9, 10 and 11: the largest joint separation stays under `limit` at every tick. The chain
 // (10) also never gains mechanical energy (beyond 1e-6 of |E0|: rounding); the bridge (11)
-// holds a steady sag: its middle plank's height varies by less than 1 cm over the last second.
+// holds a steady sag: its middle plank's height varies by less than 1 cm over the last second
+// (ticks N-59..N), at rest to the eye against its ~16 m sag. The sweep runs the undamped
+// bridge of the scene table, which no solver setting settles within 10 s (it swings on its
+// stretched joints); Case11Bridge in tests/engine/joint_cases_test.cpp measures the same way
+// on the bridge with its planks damped at 2 /s, which passes at the defaults.
 class JointProbe : public Probe {
   double limit_;
   bool energy_, sag_;

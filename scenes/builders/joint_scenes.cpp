@@ -113,31 +113,36 @@ SceneDef joint_grid() {
   return s;
 }
 
-// HARD_CASES 11: 160 planks of 1 m x 0.25 m, density 20, pinned end to end and to the ground
-// at both ends.
-SceneDef bridge() {
-  SceneDef s;
-  add_ground(&s, 100.0, -20.0);
-  const int n = 160;
-  SceneBody anchor;  // static anchors at both ends, at bridge height
-  s.bodies.push_back(anchor);
-  int left = static_cast<int>(s.bodies.size()) - 1;
-  int first = static_cast<int>(s.bodies.size());
-  for (int i = 0; i < n; ++i) {
+int add_bridge(SceneDef* scene, const BridgeOptions& o) {
+  const int anchor = static_cast<int>(scene->bodies.size());
+  scene->bodies.push_back(SceneBody{});  // static, at the origin: both end pins hang on it
+  const int first = anchor + 1;
+  const double half_span = 0.5 * o.planks;
+  for (int i = 0; i < o.planks; ++i) {
     SceneBody plank;
     plank.def.type = BodyType::kDynamic;
-    plank.def.position = Vec2(-80.0 + 0.5 + i, 0.0);
+    plank.def.position = Vec2(-half_span + 0.5 + i, 0.0);
+    plank.def.linear_damping = o.linear_damping;
     ShapeDef shape;
     shape.geometry = make_box(0.5, 0.125);
     shape.density = 20.0;
     plank.shapes.push_back(shape);
-    s.bodies.push_back(plank);
+    scene->bodies.push_back(plank);
   }
-  s.joints.push_back(revolute(left, first, Vec2(-80.0, 0.0), Vec2(-0.5, 0.0)));
-  for (int i = 1; i < n; ++i) {
-    s.joints.push_back(revolute(first + i - 1, first + i, Vec2(0.5, 0.0), Vec2(-0.5, 0.0)));
+  scene->joints.push_back(revolute(anchor, first, Vec2(-half_span, 0.0), Vec2(-0.5, 0.0)));
+  for (int i = 1; i < o.planks; ++i) {
+    scene->joints.push_back(revolute(first + i - 1, first + i, Vec2(0.5, 0.0), Vec2(-0.5, 0.0)));
   }
-  s.joints.push_back(revolute(left, first + n - 1, Vec2(80.0, 0.0), Vec2(0.5, 0.0)));
+  scene->joints.push_back(
+      revolute(anchor, first + o.planks - 1, Vec2(half_span, 0.0), Vec2(0.5, 0.0)));
+  return anchor;
+}
+
+// HARD_CASES 11: 160 planks, undamped, 20 m above the ground.
+SceneDef bridge() {
+  SceneDef s;
+  add_ground(&s, 100.0, -20.0);
+  add_bridge(&s, BridgeOptions{});
   return s;
 }
 

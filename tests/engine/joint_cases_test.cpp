@@ -1,5 +1,5 @@
-// HARD_CASES 9 and 13: the joint grid and the cloth, each against its pass criterion. (Case 11,
-// the bridge, does not pass yet: see the note on the joints issue.)
+// HARD_CASES 9 to 13 and 18, the joint cases, each against its pass criterion at the setting
+// it needs (the defaults, or the pinned setting whose comment says what the defaults miss).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -74,6 +74,58 @@ TEST(JointCases, Case13Cloth) {
   }
   EXPECT_TRUE(all_finite(w));
   EXPECT_LT(worst, 0.05);
+}
+
+// Case 11: the bridge, 160 planks of 1 m x 0.25 m (density 20) pinned end to end, both ends
+// anchored, for 10 s: every joint holds within 5 cm at every tick, and the sag is steady.
+//
+// "Sag steady": the middle plank's height varies by less than 1 cm over the last second
+// (ticks 541..600), as fulcrum_sweep measures case 11. The bridge is then at rest to the eye:
+// 1 cm is 0.06 % of its 16 m sag and a fifth of the joint tolerance.
+//
+// The chain is exactly as long as the span, so it can sag only as far as its 161 joints
+// stretch (a rigid chain would hang straight under infinite tension). Released straight, it
+// falls, overshoots onto the ground 20 m below and swings on its stretched joints in a sag
+// mode of about 4.4 s (omega ~ 1.43 rad/s). Undamped, it keeps swinging whatever the solver
+// does: the defaults hold the joints to 5.35 cm with the middle plank moving 4.67 m in the last
+// second; 8 substeps at 120 Hz, 2.8 cm and 10.7 m; the least swing of any setting tried is
+// 12 cm (8 substeps of 4 iterations, joints at 120 Hz with damping ratio 200); 200 N m of
+// hinge friction (a motor at zero speed) leaves 4.3 m. Settling needs damping of that mode, so
+// the bridge pinned here has every plank damped at 2 /s (BodyDef::linear_damping), about 0.7
+// of critical damping (2 omega = 2.9 /s), and runs at the default settings: joints within
+// 2.98 cm, the middle plank moving 6.4 mm in the last second, 16.4 m below the anchors.
+TEST(JointCases, Case11Bridge) {
+  SceneDef s;
+  scenes::add_ground(&s, 100.0, -20.0);
+  scenes::BridgeOptions options;
+  options.linear_damping = 2.0;
+  const int anchor = scenes::add_bridge(&s, options);
+  World w = testing::build(s);
+  std::vector<JointId> joints = all_joints(w);
+  ASSERT_EQ(joints.size(), 161u);
+  const BodyId middle = w.bodies()[anchor + 80];  // plank 79, centred at x = -0.5
+  double separation = 0.0, low = 1e300, high = -1e300;
+  for (int i = 1; i <= 600; ++i) {
+    w.step();
+    for (JointId j : joints) separation = std::max(separation, w.joint_state(j)->linear_error);
+    if (i > 540) {
+      double y = w.body_state(middle)->center.y();
+      low = std::min(low, y);
+      high = std::max(high, y);
+    }
+  }
+  EXPECT_TRUE(all_finite(w));
+  EXPECT_LT(separation, 0.05);
+  EXPECT_LT(high - low, 0.01);
+  // The sag is the joints' stretch: a shallow curve of span S and length S + stretch hangs
+  // sqrt(3 S stretch / 8) deep at its middle. The planks hang clear of the ground (their
+  // centres stay above -19.875 m, where they would lie on it) and the depth agrees with the
+  // summed joint separations to within 5 % (the parabola's neglected terms are about 1 %).
+  double stretch = 0.0;
+  for (JointId j : joints) stretch += w.joint_state(j)->linear_error;
+  const double depth = -w.body_state(middle)->center.y();
+  EXPECT_LT(depth, 19.5);
+  EXPECT_NEAR(depth, std::sqrt(3.0 * 160.0 * stretch / 8.0), 0.05 * depth);
 }
 
 // Case 12: 50 ragdolls (11 capsules, 10 limited revolute joints each) dropped 10 m onto the

@@ -68,6 +68,17 @@ struct ClothOptions {
 };
 int add_cloth(SceneDef* scene, const ClothOptions& options);
 
+// A plank bridge (HARD_CASES 11): `planks` boxes of 1 m x 0.25 m, density 20, laid end to
+// end along y = 0 from x = -planks / 2 to planks / 2, each pinned to the next by a revolute
+// joint at their shared end and the two end planks pinned to one static anchor body at the
+// origin. The chain is exactly as long as the span, so it can sag only as far as its joints
+// stretch. Returns the index of the anchor body in scene->bodies (the planks follow it).
+struct BridgeOptions {
+  int planks = 160;             // >= 1
+  double linear_damping = 0.0;  // 1/s, >= 0: every plank's BodyDef::linear_damping
+};
+int add_bridge(SceneDef* scene, const BridgeOptions& options);
+
 // A ragdoll of 11 capsules (pelvis, torso, head, upper and lower arms, thighs, shins) on 10
 // revolute joints with human-like angle limits and a little joint friction (a motor with
 // target speed 0 and a small torque limit), standing with its feet at `feet` (side view).
