@@ -382,6 +382,57 @@ TEST(JointMoreTest, SpringHangsAtItsStaticExtensionAndOscillatesAtItsFrequency) 
   EXPECT_NEAR(2.0 * kPi / period, std::sqrt(20.0 / mu), 0.01 * std::sqrt(20.0 / mu));
 }
 
+// The explicit spring is stable while h^2 k / m + 2 h c / m < 4 (h: the substep, m: the
+// effective mass at the anchors), and create_spring refuses a stiffer or more damped one. A
+// ball of m = 0.04 pi kg on a spring to a static point at 4 substeps of 1/60 s: the limit is
+// 4 m / h^2 = 28 953 N/m undamped. At 1.05 x the limit, or with 1.01 x 2 m / h of damping, it
+// is refused naming the field, and the world is unchanged; anchored at the ball's rim it meets
+// a third of the mass (1 / m + r^2 / I = 3 / m for a disc) and is refused at 0.34 x the limit.
+// At 0.9 x the limit, stretched 0.1 m in zero gravity, it stays bounded for 10 s at the
+// amplitude symplectic Euler predicts, 0.1 / sqrt(1 - h^2 k / (4 m)) = 0.1 / sqrt(0.1) =
+// 0.316 m (within 1 %: the ticks sample the orbit), which grows without bound as k nears the
+// limit.
+TEST(JointMoreTest, SpringsTooStiffForTheSubstepAreRefused) {
+  World w(WorldSettings{.gravity = Vec2::Zero(), .enable_sleep = false});
+  BodyId top = static_body(w, Vec2(0.0, 0.0));
+  BodyId ball = dynamic_body(w, Vec2(0.0, -1.1), Circle{Vec2::Zero(), 0.2});
+  const double m = w.body_state(ball)->mass;
+  ASSERT_NEAR(m, 0.04 * kPi, 1e-12);
+  const double h = kDt / 4.0;
+  const double limit = 4.0 * m / (h * h);
+  const uint64_t before = w.state_hash();
+  SpringDef d;
+  d.body_a = top;
+  d.body_b = ball;
+  d.rest_length = 1.0;
+  d.stiffness = 1.05 * limit;
+  Result<JointId> refused = w.create_spring(d);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_TRUE(contains(refused.status().message(), "spring.stiffness: must be < 2.895e+04 N/m"))
+      << refused.status().message();
+  d.stiffness = 0.0;
+  d.damping = 1.01 * 2.0 * m / h;
+  refused = w.create_spring(d);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_TRUE(contains(refused.status().message(), "spring.damping")) << refused.status().message();
+  d.damping = 0.0;
+  d.stiffness = 0.34 * limit;  // fine at the centre, not at the rim
+  d.local_anchor_b = Vec2(0.2, 0.0);
+  EXPECT_FALSE(w.create_spring(d).ok());
+  EXPECT_EQ(w.state_hash(), before);
+
+  d.local_anchor_b = Vec2::Zero();
+  d.stiffness = 0.9 * limit;
+  JointId id = *w.create_spring(d);
+  double widest = 0.0;
+  for (int i = 0; i < 600; ++i) {
+    w.step();
+    widest = std::max(widest, std::abs(w.joint_state(id)->length - 1.0));
+  }
+  EXPECT_NEAR(widest, 0.1 / std::sqrt(0.1), 0.01 * 0.1 / std::sqrt(0.1));
+}
+
 // --- Every new joint: break limits, destruction with a body, hashing ---------------------------
 
 // Each new kind, holding a 1 kg box under gravity (10 N), breaks on the first tick with a

@@ -154,9 +154,13 @@ struct CurveJointDef {
 // A spring between two body points, applied as a force (not a constraint) when velocities are
 // integrated, before the constraints are solved:
 //   F on B = -(stiffness (|d| - rest_length) + damping (d/|d| . relative velocity)) d/|d|,
-// and -F on A, with d = anchor B - anchor A. Explicit, so stable while
-// h sqrt(stiffness / m) < 2 for the substep h and the lighter mass m. It joins islands and
-// breaks and is destroyed with its bodies like a joint (it has a JointId).
+// and -F on A, with d = anchor B - anchor A. Explicit, so stable only while
+// h^2 stiffness / m + 2 h damping / m < 4 for the substep h = dt / substeps and the effective
+// mass m at the anchors (1 / m = the bodies' inverse masses plus inv_inertia |r|^2 for each
+// anchor arm r); create_spring refuses a spring that breaks this at creation (INVALID_ARGUMENT
+// naming spring.stiffness or spring.damping), but does not recheck when settings or masses
+// change later, nor for several springs on one body. It joins islands and breaks and is
+// destroyed with its bodies like a joint (it has a JointId).
 struct SpringDef {
   BodyId body_a;
   BodyId body_b;
