@@ -1,5 +1,6 @@
-// HARD_CASES 9 to 13 and 18, the joint cases, each against its pass criterion at the setting
-// it needs (the defaults, or the pinned setting whose comment says what the defaults miss).
+// HARD_CASES 9, 11, 12, 13 and 18 (case 10 is in joint_test.cpp), each against its pass
+// criterion at the setting it needs (the defaults, or a pinned setting whose comment says what
+// the defaults miss).
 #include <gtest/gtest.h>
 
 #include <algorithm>
