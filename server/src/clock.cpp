@@ -78,7 +78,9 @@ Status Session::set_run_mode(RealTimePool* pool, v1::RunMode mode,
       }
       if (!was_running) {
         clock_.begin(SteadyClock::now(), world_.tick(), world_.settings().dt);
-        log_world_event(id_, "real time at " + std::to_string(1.0 / clock_.dt) + " Hz from tick " +
+        char hz[32];
+        std::snprintf(hz, sizeof hz, "%g", 1.0 / clock_.dt);
+        log_world_event(id_, std::string("real time at ") + hz + " Hz from tick " +
                                  std::to_string(world_.tick()) + ", catch-up cap " +
                                  std::to_string(clock_.max_catch_up) + " ticks");
       }
