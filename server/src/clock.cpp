@@ -71,6 +71,7 @@ Status Session::set_run_mode(RealTimePool* pool, v1::RunMode mode,
   bool was_running = false;
   {
     Hold hold(this);
+    if (retired_) return not_found("world_id: world " + std::to_string(id_) + " was deleted");
     was_running = clock_.mode == v1::RUN_MODE_REAL_TIME;
     if (mode == v1::RUN_MODE_REAL_TIME) {
       if (max_catch_up || !was_running) {
@@ -107,6 +108,12 @@ Status Session::set_run_mode(RealTimePool* pool, v1::RunMode mode,
     pool->stop(this);  // waits for a wake in progress: the tick in the reply is final
   }
   return {};
+}
+
+void Session::retire() {
+  Hold hold(this);
+  retired_ = true;
+  clock_.mode = v1::RUN_MODE_PAUSED;  // a wake already under way stops at its next look
 }
 
 std::optional<SteadyClock::time_point> Session::run_due_ticks(SteadyClock::time_point now) {

@@ -412,6 +412,7 @@ Status Registry::remove(uint64_t id) {
     session = std::move(it->second);
     worlds_.erase(it);
   }
+  session->retire();
   if (pool_ != nullptr) pool_->stop(session.get());
   session->close_recording();
   session->close_streams(not_found("world " + std::to_string(id) + " was deleted"), false);

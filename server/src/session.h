@@ -74,6 +74,9 @@ class Session : public std::enable_shared_from_this<Session> {
   // now) or takes it off (PAUSED: no tick runs after the call returns).
   Status set_run_mode(RealTimePool* pool, v1::RunMode mode, std::optional<uint32_t> max_catch_up,
                       v1::SetRunModeReply* reply);
+  // Marks a deleted world: off the clock for good, and SetRunMode / StartRecording calls that
+  // found it before it was deleted are refused with NOT_FOUND.
+  void retire();
   // One wake of the clock, on a pool thread: steps the ticks due by `now` (at most the cap,
   // dropping the rest) unless an RPC holds the world. Returns when to wake next, or nullopt
   // when the world no longer runs.
@@ -138,6 +141,7 @@ class Session : public std::enable_shared_from_this<Session> {
   World world_;
   uint64_t epoch_ = 0;
   RealTimeClock clock_;
+  bool retired_ = false;                // deleted from the registry
   std::unique_ptr<Recorder> recorder_;  // open recording, or null
   ReplayFileRef last_replay_;           // the last closed recording (name empty: none)
   int64_t last_replay_start_tick_ = 0;
