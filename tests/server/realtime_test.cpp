@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <sstream>
 #include <thread>
 
@@ -208,6 +209,40 @@ TEST_F(RealTimeTest, FallingBehindDropsTicksBeyondTheCatchUpCap) {
   EXPECT_LE(w.run.ticks_run, 3 * w.run.wakes);
   EXPECT_LE(w.run.ticks_run + w.run.ticks_dropped, due);
   EXPECT_EQ(w.tick, w.run.ticks_run);
+}
+
+// Frames stream as the clock steps the world: a reader sees increasing ticks, and the newest
+// frame it got before the pause is at most the paused tick.
+TEST_F(RealTimeTest, FramesStreamWhileTheWorldRuns) {
+  start();
+  const uint64_t id = create(pyramid_json());
+  std::mutex mu;
+  std::vector<int64_t> ticks;
+  client::SubscribeOptions options;
+  options.bodies = client::FrameBodies::kNone;
+  auto sub = client_->subscribe(id, options, [&](const client::Frame& f) {
+    std::lock_guard<std::mutex> lock(mu);
+    ticks.push_back(f.tick);
+  });
+  ASSERT_TRUE(sub.ok());
+  ASSERT_TRUE(client_->set_run_mode(id, client::RunMode::kRealTime).ok());
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  Result<client::RunModeResult> paused = client_->set_run_mode(id, client::RunMode::kPaused);
+  ASSERT_TRUE(paused.ok());
+  // The last frame may still be in flight: wait for the paused tick (bounded).
+  const auto deadline = Clock::now() + std::chrono::seconds(20);
+  for (;;) {
+    {
+      std::lock_guard<std::mutex> lock(mu);
+      if (!ticks.empty() && ticks.back() == paused->tick) break;
+    }
+    ASSERT_LT(Clock::now(), deadline) << "the paused tick's frame never arrived";
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  (*sub)->cancel();
+  std::lock_guard<std::mutex> lock(mu);
+  EXPECT_GE(ticks.size(), 3u);  // the first frame (tick 0) and frames as the world ran
+  for (size_t i = 1; i < ticks.size(); ++i) EXPECT_LT(ticks[i - 1], ticks[i]);
 }
 
 // The clock decides when ticks run, never what they compute: a world that ran in real time with
