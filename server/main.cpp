@@ -29,6 +29,10 @@ constexpr char kUsage[] =
     "  --token-file FILE        require `authorization: Bearer <token>` on every call but\n"
     "                           health checks; the token is the file's first line\n"
     "  --grace-ms N             on SIGTERM/SIGINT, time calls in progress get (default 5000)\n"
+    "  --worker-threads N       threads stepping worlds that run in real time (default: the\n"
+    "                           number of hardware threads)\n"
+    "  --replay-dir DIR         where StartRecording writes replays (created if missing;\n"
+    "                           default: none, recording is refused)\n"
     "\n"
     "exit codes: 0 stopped by a signal, 1 could not start, 2 bad command line\n";
 
@@ -107,6 +111,12 @@ int main(int argc, char** argv) {
         std::cerr << "fulcrum-server: " << error << "\n";
         return 1;
       }
+    } else if (arg == "--worker-threads") {
+      if (!parse_number(value, 1, 1024, &n)) return usage_error(arg + ": expected 1 to 1024");
+      options.worker_threads = static_cast<int>(n);
+    } else if (arg == "--replay-dir") {
+      if (value.empty()) return usage_error(arg + ": expected a directory");
+      options.replay_dir = value;
     } else {
       return usage_error("unknown flag '" + arg + "'");
     }

@@ -1,5 +1,6 @@
 #include "args.h"
 
+#include <cctype>
 #include <charconv>
 #include <limits>
 
@@ -21,7 +22,11 @@ bool Args::parse(std::span<const std::string> argv, std::span<const FlagSpec> sp
   bool flags_done = false;
   for (size_t i = 0; i < argv.size(); ++i) {
     const std::string& word = argv[i];
-    if (flags_done || word.size() < 2 || word[0] != '-') {
+    // A negative number ("-5", "-.5") is a positional argument, not a flag.
+    const bool negative_number =
+        word.size() >= 2 && word[0] == '-' &&
+        (std::isdigit(static_cast<unsigned char>(word[1])) || word[1] == '.');
+    if (flags_done || word.size() < 2 || word[0] != '-' || negative_number) {
       out->positional_.push_back(word);
       continue;
     }

@@ -80,5 +80,8 @@ int run_step(const Invocation& inv);
 int run_edit(const Invocation& inv);
 int run_snapshot(const Invocation& inv);
 int run_watch(const Invocation& inv);
+int run_run(const Invocation& inv);
+int run_pause(const Invocation& inv);
+int run_query(const Invocation& inv);
 
 }  // namespace fulcrum::cli

@@ -24,7 +24,10 @@ constexpr FlagSpec kReplayFlags[] = {
     {"ticks", "N", "record: number of ticks to record"},
     {"out", "FILE", "record: the replay file to write"},
     {"edits", "FILE", "record: edit script (Protobuf JSON of fulcrum.v1.EditScript)"},
-    {"keyframes", "K", "record: a full snapshot every K ticks (default 60, 0: none)"},
+    {"keyframes", "K", "record, start: a full snapshot every K ticks (default 60, 0: none)"},
+    kServerFlag,
+    kTokenFileFlag,
+    kDeadlineFlag,
 };
 
 constexpr FlagSpec kRemoteFlags[] = {kServerFlag, kTokenFileFlag, kDeadlineFlag};
@@ -51,6 +54,19 @@ constexpr FlagSpec kWatchFlags[] = {
     {"seconds", "S", "stop after S seconds (default: when the stream ends)"},
     {"every", "K", "a frame every K ticks (default 1; late frames are coalesced)"}};
 
+constexpr FlagSpec kRunFlags[] = {
+    kServerFlag,
+    kTokenFileFlag,
+    kDeadlineFlag,
+    {"max-catch-up", "N", "ticks one wake may step when the server is behind (default 5)"}};
+constexpr FlagSpec kQueryFlags[] = {
+    kServerFlag,
+    kTokenFileFlag,
+    kDeadlineFlag,
+    {"all", "", "ray: every hit along the ray, not only the closest"},
+    {"category", "BITS", "the query's category bits (default 1; decimal or 0x hex)"},
+    {"mask", "BITS", "the query's mask bits (default all)"}};
+
 constexpr Command kCommands[] = {
     {"sim", "build a scene, step it N ticks, print the state hash and accuracy figures",
      "(--scene FILE | --builtin NAME) --ticks N [--json]",
@@ -67,11 +83,18 @@ constexpr Command kCommands[] = {
      "record (--scene FILE | --builtin NAME) --ticks N --out FILE [--edits FILE] "
      "[--keyframes K]\n"
      "       fulcrum replay verify FILE\n"
-     "       fulcrum replay info FILE",
+     "       fulcrum replay info FILE\n"
+     "       fulcrum replay start WORLD [--keyframes K]   (on a fulcrum-server)\n"
+     "       fulcrum replay stop WORLD\n"
+     "       fulcrum replay download (WORLD | NAME) --out FILE",
      "A replay holds the initial snapshot, every edit batch with its tick, every tick's state\n"
      "hash and a keyframe snapshot every K ticks. `verify` re-simulates it and exits 0 when\n"
      "every tick matches; otherwise it exits 1 naming the first divergent tick and, from the\n"
-     "keyframe of that tick or the next, the first body, joint or contact field that differs.",
+     "keyframe of that tick or the next, the first body, joint or contact field that differs.\n"
+     "`start`/`stop` record a world on the server (fulcrum-server --replay-dir): every tick\n"
+     "with the edit batches applied before it. `download` fetches the world's current or last\n"
+     "recording, or a replay by the name `start` printed; a recording in progress comes up to\n"
+     "its last complete tick.",
      kReplayFlags, 2, run_replay},
     {"create", "create a world on a fulcrum-server from a scene file", "--scene FILE",
      "Prints \"world ID created from FILE: ...\"; ID names the world in the other commands.",
@@ -91,6 +114,23 @@ constexpr Command kCommands[] = {
      run_snapshot},
     {"watch", "follow a world's frames: one line per second (tick, awake bodies, hash)",
      "WORLD [--seconds S] [--every K]", "", kWatchFlags, 1, run_watch},
+    {"run", "run a world on a fulcrum-server in real time (its dt on the server's clock)",
+     "WORLD [--max-catch-up N]",
+     "The server steps the world once per dt against its monotonic clock until `fulcrum pause`.\n"
+     "When the server falls behind, one wake steps at most N ticks and drops the rest of the\n"
+     "ticks then due (counted by `fulcrum worlds`). `step` is refused while a world runs;\n"
+     "edits apply between two ticks.",
+     kRunFlags, 1, run_run},
+    {"pause", "stop a world's real-time clock", "WORLD",
+     "No tick runs after the reply; the world steps only by `fulcrum step` again.", kRemoteFlags, 1,
+     run_pause},
+    {"query", "ray cast, AABB overlap or point query on a world on a fulcrum-server",
+     "WORLD ray X1 Y1 X2 Y2 [--all]\n"
+     "       fulcrum query WORLD aabb XMIN YMIN XMAX YMAX\n"
+     "       fulcrum query WORLD point X Y",
+     "Against the world at its current tick (m). A ray goes from (X1, Y1) to (X2, Y2); shapes\n"
+     "print as INDEX:GENERATION handles. --category/--mask filter like a shape's filter.",
+     kQueryFlags, 6, run_query},
 };
 
 void print_main_help(std::ostream& out) {

@@ -3,8 +3,11 @@
 #include <limits>
 #include <ostream>
 
+#include <fstream>
+
 #include "command.h"
 #include "edit_convert.h"
+#include "remote.h"
 #include "replay.h"
 #include "snapshot_convert.h"
 
@@ -122,11 +125,81 @@ int info(const Invocation& inv, const std::string& path) {
   return kExitOk;
 }
 
+// --- On a fulcrum-server: start, stop, download ---
+
+int server_start(const Invocation& inv, client::Client* client, uint64_t world) {
+  std::optional<uint32_t> keyframes;
+  if (auto k = inv.args.value("keyframes")) {
+    std::string error;
+    auto parsed = parse_int(*k, 0, std::numeric_limits<uint32_t>::max(), &error);
+    if (!parsed) return inv.usage_error("--keyframes: " + error);
+    keyframes = static_cast<uint32_t>(*parsed);
+  }
+  Result<client::RecordingResult> r = client->start_recording(world, keyframes);
+  if (!r.ok()) return inv.fail(r.status().message());
+  inv.out << "world " << world << ": recording " << r->name << " from tick " << r->tick << "\n";
+  return kExitOk;
+}
+
+int server_stop(const Invocation& inv, client::Client* client, uint64_t world) {
+  Result<client::RecordingResult> r = client->stop_recording(world);
+  if (!r.ok()) return inv.fail(r.status().message());
+  inv.out << "world " << world << ": recording " << r->name << " closed: " << r->ticks << " ticks, "
+          << r->bytes << " bytes\n";
+  return kExitOk;
+}
+
+int server_download(const Invocation& inv, client::Client* client, const std::string& what) {
+  const std::optional<std::string> out = inv.args.value("out");
+  if (!out) return inv.usage_error("download: missing --out FILE");
+  // A whole number names a world (its current or last recording); anything else a replay.
+  std::string error;
+  std::optional<int64_t> world = parse_int(what, 1, std::numeric_limits<int64_t>::max(), &error);
+  std::ofstream file(*out, std::ios::binary | std::ios::trunc);
+  if (!file) return inv.fail(*out + ": cannot write");
+  Result<client::DownloadResult> r = client->download_replay(
+      world ? static_cast<uint64_t>(*world) : 0, world ? std::string() : what,
+      [&](std::string_view chunk) {
+        file.write(chunk.data(), static_cast<std::streamsize>(chunk.size()));
+        return file ? Status() : Status(StatusCode::kInternal, *out + ": write failed");
+      });
+  file.close();
+  if (!r.ok()) {
+    std::remove(out->c_str());
+    return inv.fail(r.status().message());
+  }
+  if (!file) return inv.fail(*out + ": write failed");
+  inv.out << "downloaded " << r->name << ": " << r->bytes << " bytes to " << *out << " (checksum "
+          << hex64(r->checksum) << " matches the server's)\n";
+  return kExitOk;
+}
+
+int on_server(const Invocation& inv, const std::string& action) {
+  const auto& pos = inv.args.positional();
+  if (pos.size() != 2) {
+    return inv.usage_error(action + ": expected " +
+                           (action == "download" ? "WORLD or NAME" : "WORLD"));
+  }
+  int exit_code = kExitOk;
+  std::optional<uint64_t> world;
+  if (action != "download") {
+    world = world_arg(inv, 1, &exit_code);
+    if (!world) return exit_code;
+  }
+  auto client = connect_from_args(inv, &exit_code);
+  if (!client) return exit_code;
+  if (action == "start") return server_start(inv, client.get(), *world);
+  if (action == "stop") return server_stop(inv, client.get(), *world);
+  return server_download(inv, client.get(), pos[1]);
+}
+
 }  // namespace
 
 int run_replay(const Invocation& inv) {
   const auto& pos = inv.args.positional();
-  if (pos.empty()) return inv.usage_error("missing action: record, verify or info");
+  if (pos.empty()) {
+    return inv.usage_error("missing action: record, verify, info, start, stop or download");
+  }
   const std::string& action = pos[0];
   if (action == "record") {
     if (pos.size() > 1) return inv.usage_error("record takes no FILE argument (use --out)");
@@ -136,7 +209,9 @@ int run_replay(const Invocation& inv) {
     if (pos.size() != 2) return inv.usage_error(action + ": expected one replay FILE");
     return action == "verify" ? verify(inv, pos[1]) : info(inv, pos[1]);
   }
-  return inv.usage_error("unknown action '" + action + "' (record, verify or info)");
+  if (action == "start" || action == "stop" || action == "download") return on_server(inv, action);
+  return inv.usage_error("unknown action '" + action +
+                         "' (record, verify, info, start, stop or download)");
 }
 
 }  // namespace fulcrum::cli

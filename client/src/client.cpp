@@ -65,6 +65,10 @@ Status from_grpc(const grpc::Status& s) {
   }
 }
 
+RunMode run_mode_from(v1::RunMode m) {
+  return m == v1::RUN_MODE_REAL_TIME ? RunMode::kRealTime : RunMode::kPaused;
+}
+
 WorldSummary summary_from(const v1::WorldInfo& w) {
   WorldSummary out;
   out.id = w.world_id();
@@ -75,8 +79,51 @@ WorldSummary summary_from(const v1::WorldInfo& w) {
   out.contact_count = w.contact_count();
   out.state_hash = w.state_hash();
   out.watchers = w.watchers();
+  const v1::RealTimeInfo& r = w.run();
+  out.run.mode = run_mode_from(r.mode());
+  out.run.dt = r.dt();
+  out.run.max_catch_up_ticks = r.max_catch_up_ticks();
+  out.run.start_tick = r.start_tick();
+  out.run.ticks_run = r.ticks_run();
+  out.run.ticks_dropped = r.ticks_dropped();
+  out.run.late_wakes = r.late_wakes();
+  out.run.wakes = r.wakes();
+  out.run.max_ticks_in_a_wake = r.max_ticks_in_a_wake();
+  out.run.busy_retries = r.busy_retries();
+  const v1::RecordingInfo& rec = w.recording();
+  out.recording.active = rec.active();
+  out.recording.name = rec.name();
+  out.recording.start_tick = rec.start_tick();
+  out.recording.ticks = rec.ticks();
+  out.recording.bytes = rec.bytes();
+  out.recording.error = rec.error();
   return out;
 }
+
+void filter_to(const QueryFilter& filter, v1::QueryRequest* request) {
+  const QueryFilter defaults;
+  if (filter.category_bits != defaults.category_bits) {
+    request->mutable_filter()->set_category_bits(filter.category_bits);
+  }
+  if (filter.mask_bits != defaults.mask_bits) {
+    request->mutable_filter()->set_mask_bits(filter.mask_bits);
+  }
+}
+
+// FNV-1a 64, fed chunk by chunk (the checksum DownloadReplay sends).
+class Fnv1a64 {
+ public:
+  void update(std::string_view bytes) {
+    for (unsigned char c : bytes) {
+      h_ ^= c;
+      h_ *= 0x100000001b3ULL;
+    }
+  }
+  uint64_t value() const { return h_; }
+
+ private:
+  uint64_t h_ = 0xcbf29ce484222325ULL;
+};
 
 template <typename Id>
 Id id_from(const v1::Handle& h) {
@@ -307,9 +354,11 @@ class GrpcClient final : public Client {
   }
 
   Result<std::optional<RayHit>> ray_cast_closest(uint64_t world, const Vec2& origin,
-                                                 const Vec2& translation) override {
+                                                 const Vec2& translation,
+                                                 const QueryFilter& filter) override {
     v1::QueryRequest request;
     request.set_world_id(world);
+    filter_to(filter, &request);
     vec_to(origin, request.mutable_ray_cast()->mutable_origin());
     vec_to(translation, request.mutable_ray_cast()->mutable_translation());
     v1::QueryReply reply;
@@ -325,19 +374,142 @@ class GrpcClient final : public Client {
     return std::optional<RayHit>(hit);
   }
 
-  Result<std::vector<ShapeHit>> overlap_aabb(uint64_t world, const AABB& box) override {
+  Result<std::vector<RayCastHit>> ray_cast_all(uint64_t world, const Vec2& origin,
+                                               const Vec2& translation,
+                                               const QueryFilter& filter) override {
     v1::QueryRequest request;
     request.set_world_id(world);
+    filter_to(filter, &request);
+    vec_to(origin, request.mutable_ray_cast()->mutable_origin());
+    vec_to(translation, request.mutable_ray_cast()->mutable_translation());
+    request.mutable_ray_cast()->set_all(true);
+    v1::QueryReply reply;
+    Status st = query(request, &reply);
+    if (!st.ok()) return st;
+    std::vector<RayCastHit> out;
+    for (const v1::RayHit& h : reply.hits()) {
+      RayCastHit hit;
+      hit.shape = id_from<ShapeId>(h.shape());
+      hit.body = id_from<BodyId>(h.body());
+      hit.point = Vec2(h.point().x(), h.point().y());
+      hit.normal = Vec2(h.normal().x(), h.normal().y());
+      hit.fraction = h.fraction();
+      out.push_back(hit);
+    }
+    return out;
+  }
+
+  Result<std::vector<ShapeHit>> overlap_aabb(uint64_t world, const AABB& box,
+                                             const QueryFilter& filter) override {
+    v1::QueryRequest request;
+    request.set_world_id(world);
+    filter_to(filter, &request);
     vec_to(box.lower, request.mutable_aabb()->mutable_lower());
     vec_to(box.upper, request.mutable_aabb()->mutable_upper());
     return shape_hits(request);
   }
 
-  Result<std::vector<ShapeHit>> overlap_point(uint64_t world, const Vec2& point) override {
+  Result<std::vector<ShapeHit>> overlap_point(uint64_t world, const Vec2& point,
+                                              const QueryFilter& filter) override {
     v1::QueryRequest request;
     request.set_world_id(world);
+    filter_to(filter, &request);
     vec_to(point, request.mutable_point()->mutable_point());
     return shape_hits(request);
+  }
+
+  Result<RunModeResult> set_run_mode(uint64_t world, RunMode mode,
+                                     std::optional<uint32_t> max_catch_up_ticks) override {
+    v1::SetRunModeRequest request;
+    request.set_world_id(world);
+    request.set_mode(mode == RunMode::kRealTime ? v1::RUN_MODE_REAL_TIME : v1::RUN_MODE_PAUSED);
+    if (max_catch_up_ticks) request.set_max_catch_up_ticks(*max_catch_up_ticks);
+    v1::SetRunModeReply reply;
+    auto context = make_context();
+    Status st = from_grpc(stub_->SetRunMode(context.get(), request, &reply));
+    if (!st.ok()) return st;
+    return RunModeResult{run_mode_from(reply.mode()), reply.tick()};
+  }
+
+  Result<RecordingResult> start_recording(uint64_t world,
+                                          std::optional<uint32_t> keyframe_interval) override {
+    v1::StartRecordingRequest request;
+    request.set_world_id(world);
+    if (keyframe_interval) request.set_keyframe_interval(*keyframe_interval);
+    v1::StartRecordingReply reply;
+    auto context = make_context();
+    Status st = from_grpc(stub_->StartRecording(context.get(), request, &reply));
+    if (!st.ok()) return st;
+    RecordingResult out;
+    out.name = reply.name();
+    out.tick = reply.tick();
+    return out;
+  }
+
+  Result<RecordingResult> stop_recording(uint64_t world) override {
+    v1::StopRecordingRequest request;
+    request.set_world_id(world);
+    v1::StopRecordingReply reply;
+    auto context = make_context();
+    Status st = from_grpc(stub_->StopRecording(context.get(), request, &reply));
+    if (!st.ok()) return st;
+    RecordingResult out;
+    out.name = reply.name();
+    out.ticks = reply.ticks();
+    out.bytes = reply.bytes();
+    return out;
+  }
+
+  Result<DownloadResult> download_replay(
+      uint64_t world, std::string_view name,
+      const std::function<Status(std::string_view chunk)>& sink) override {
+    v1::DownloadReplayRequest request;
+    request.set_world_id(world);
+    request.set_name(std::string(name));
+    auto context = make_context();
+    std::unique_ptr<grpc::ClientReader<v1::ReplayChunk>> reader =
+        stub_->DownloadReplay(context.get(), request);
+    DownloadResult out;
+    Fnv1a64 sum;
+    uint64_t total = 0;
+    bool first = true, last = false;
+    uint64_t server_checksum = 0;
+    Status sink_error;
+    v1::ReplayChunk chunk;
+    while (reader->Read(&chunk)) {
+      if (first) {
+        out.name = chunk.name();
+        total = chunk.total_size();
+        first = false;
+      }
+      if (chunk.offset() != out.bytes) {
+        sink_error = data_loss("replay: chunk at offset " + std::to_string(chunk.offset()) +
+                               ", expected " + std::to_string(out.bytes));
+      }
+      if (sink_error.ok()) sink_error = sink(chunk.data());
+      if (!sink_error.ok()) {
+        context->TryCancel();
+        break;
+      }
+      sum.update(chunk.data());
+      out.bytes += chunk.data().size();
+      if (chunk.last()) {
+        last = true;
+        server_checksum = chunk.checksum();
+      }
+    }
+    Status st = from_grpc(reader->Finish());
+    if (!sink_error.ok()) return sink_error;
+    if (!st.ok()) return st;
+    out.checksum = sum.value();
+    if (!last || out.bytes != total) {
+      return data_loss("replay: received " + std::to_string(out.bytes) + " of " +
+                       std::to_string(total) + " bytes");
+    }
+    if (out.checksum != server_checksum) {
+      return data_loss("replay: checksum mismatch (the download is damaged)");
+    }
+    return out;
   }
 
  private:

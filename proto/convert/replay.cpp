@@ -63,6 +63,7 @@ Status ReplayWriter::write_record(const v1::ReplayRecord& record) {
       std::fflush(file_) != 0) {
     return Status(StatusCode::kInternal, path_ + ": write failed");
   }
+  bytes_ += bytes.size();
   return {};
 }
 

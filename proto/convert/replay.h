@@ -38,6 +38,9 @@ class ReplayWriter {
   Status record_tick(const World& world, const std::vector<v1::EditBatch>& batches);
   Status close();
   int64_t ticks_written() const { return ticks_; }
+  // Bytes written and flushed so far: the file up to its last complete record.
+  uint64_t bytes_written() const { return bytes_; }
+  const std::string& path() const { return path_; }
 
  private:
   ReplayWriter(std::FILE* file, std::string path, uint32_t keyframe_interval);
@@ -47,6 +50,7 @@ class ReplayWriter {
   std::string path_;
   uint32_t keyframe_interval_;
   int64_t ticks_ = 0;
+  uint64_t bytes_ = 0;
 };
 
 struct ReplayContents {

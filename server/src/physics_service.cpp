@@ -5,7 +5,10 @@
 #include <optional>
 #include <utility>
 
+#include <filesystem>
+
 #include "fulcrum/scene.h"
+#include "replay_download.h"
 #include "scene_convert.h"
 
 namespace fulcrum::server {
@@ -46,11 +49,13 @@ bool same_secret(std::string_view a, std::string_view b) {
 }
 
 // A stream that ends at once with an error (bad request, unknown world).
-class RefusedStream final : public grpc::ServerWriteReactor<v1::Frame> {
+template <typename Message>
+class Refused final : public grpc::ServerWriteReactor<Message> {
  public:
-  explicit RefusedStream(grpc::Status status) { Finish(std::move(status)); }
+  explicit Refused(grpc::Status status) { this->Finish(std::move(status)); }
   void OnDone() override { delete this; }
 };
+using RefusedStream = Refused<v1::Frame>;
 
 // One StreamFrames call. The world's thread offers frames; the newest unread one waits in
 // pending_ (a mailbox of one: a newer frame replaces it and counts as skipped), so a reader
@@ -323,6 +328,84 @@ grpc::ServerWriteReactor<v1::Frame>* PhysicsService::StreamFrames(
   auto session = registry_->find(request->world_id());
   if (!session.ok()) return new RefusedStream(to_grpc_status(session.status()));
   return FrameStream::start(*session, *request);
+}
+
+// --- Real time and replays on the server ------------------------------------------------------
+
+grpc::Status PhysicsService::SetRunMode(grpc::ServerContext* context,
+                                        const v1::SetRunModeRequest* request,
+                                        v1::SetRunModeReply* reply) {
+  FULCRUM_CHECK_TOKEN(context);
+  auto session = registry_->find(request->world_id());
+  if (!session.ok()) return to_grpc_status(session.status());
+  std::optional<uint32_t> cap;
+  if (request->has_max_catch_up_ticks()) cap = request->max_catch_up_ticks();
+  return to_grpc_status((*session)->set_run_mode(registry_->pool(), request->mode(), cap, reply));
+}
+
+grpc::Status PhysicsService::StartRecording(grpc::ServerContext* context,
+                                            const v1::StartRecordingRequest* request,
+                                            v1::StartRecordingReply* reply) {
+  FULCRUM_CHECK_TOKEN(context);
+  auto session = registry_->find(request->world_id());
+  if (!session.ok()) return to_grpc_status(session.status());
+  std::optional<uint32_t> keyframes;
+  if (request->has_keyframe_interval()) keyframes = request->keyframe_interval();
+  return to_grpc_status((*session)->start_recording(registry_->replays(), keyframes, reply));
+}
+
+grpc::Status PhysicsService::StopRecording(grpc::ServerContext* context,
+                                           const v1::StopRecordingRequest* request,
+                                           v1::StopRecordingReply* reply) {
+  FULCRUM_CHECK_TOKEN(context);
+  auto session = registry_->find(request->world_id());
+  if (!session.ok()) return to_grpc_status(session.status());
+  return to_grpc_status((*session)->stop_recording(reply));
+}
+
+namespace {
+
+// The file a DownloadReplay request names: a world's current or last recording, or a name in
+// the replay directory (a recording in progress is cut at its last complete tick).
+Result<ReplayFileRef> find_replay(Registry* registry, const v1::DownloadReplayRequest& request) {
+  if (request.name().empty()) {
+    if (request.world_id() == 0) return invalid_argument("world_id or name: one is required");
+    auto session = registry->find(request.world_id());
+    if (!session.ok()) return session.status();
+    return (*session)->replay_file();
+  }
+  FULCRUM_RETURN_IF_ERROR(ReplayStore::check_name(request.name()));
+  ReplayStore* store = registry->replays();
+  if (store == nullptr || !store->enabled()) {
+    return not_found("name: no replay " + request.name() + " (recording is off on this server)");
+  }
+  for (const auto& session : registry->list()) {
+    Result<ReplayFileRef> file = session->replay_file();
+    if (file.ok() && file->name == request.name()) return file;
+  }
+  ReplayFileRef file{request.name(), store->path_of(request.name()), 0};
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(file.path, ec)) {
+    return not_found("name: no replay " + request.name());
+  }
+  file.bytes = std::filesystem::file_size(file.path, ec);
+  if (ec) return not_found("name: replay " + request.name() + " cannot be read");
+  return file;
+}
+
+}  // namespace
+
+grpc::ServerWriteReactor<v1::ReplayChunk>* PhysicsService::DownloadReplay(
+    grpc::CallbackServerContext* context, const v1::DownloadReplayRequest* request) {
+  grpc::Status auth = check_token(*context);
+  if (!auth.ok()) return new Refused<v1::ReplayChunk>(auth);
+  if (shutting_down_) {
+    return new Refused<v1::ReplayChunk>(
+        grpc::Status(grpc::StatusCode::UNAVAILABLE, "the server is stopping"));
+  }
+  Result<ReplayFileRef> file = find_replay(registry_, *request);
+  if (!file.ok()) return new Refused<v1::ReplayChunk>(to_grpc_status(file.status()));
+  return start_replay_download(*file);
 }
 
 }  // namespace fulcrum::server

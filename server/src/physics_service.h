@@ -19,7 +19,8 @@ namespace fulcrum::server {
 grpc::Status to_grpc_status(const Status& status);
 
 class PhysicsService final
-    : public v1::Physics::WithCallbackMethod_StreamFrames<v1::Physics::Service> {
+    : public v1::Physics::WithCallbackMethod_DownloadReplay<
+          v1::Physics::WithCallbackMethod_StreamFrames<v1::Physics::Service>> {
  public:
   // An empty token turns authentication off.
   PhysicsService(Registry* registry, std::string token);
@@ -45,6 +46,17 @@ class PhysicsService final
                      v1::QueryReply* reply) override;
   grpc::ServerWriteReactor<v1::Frame>* StreamFrames(
       grpc::CallbackServerContext* context, const v1::StreamFramesRequest* request) override;
+
+  // Real time and replays on the server (clock.h, recorder.h).
+  grpc::Status SetRunMode(grpc::ServerContext* context, const v1::SetRunModeRequest* request,
+                          v1::SetRunModeReply* reply) override;
+  grpc::Status StartRecording(grpc::ServerContext* context,
+                              const v1::StartRecordingRequest* request,
+                              v1::StartRecordingReply* reply) override;
+  grpc::Status StopRecording(grpc::ServerContext* context, const v1::StopRecordingRequest* request,
+                             v1::StopRecordingReply* reply) override;
+  grpc::ServerWriteReactor<v1::ReplayChunk>* DownloadReplay(
+      grpc::CallbackServerContext* context, const v1::DownloadReplayRequest* request) override;
 
   // New streams are refused and open ones end with UNAVAILABLE.
   void begin_shutdown();

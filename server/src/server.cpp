@@ -4,7 +4,12 @@
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
 
+#include <filesystem>
+#include <thread>
+
+#include "clock.h"
 #include "physics_service.h"
+#include "recorder.h"
 
 namespace fulcrum::server {
 
@@ -18,8 +23,23 @@ Result<std::unique_ptr<Server>> Server::start(const ServerOptions& options) {
   grpc::EnableDefaultHealthCheckService(true);
   if (options.reflection) grpc::reflection::InitProtoReflectionServerBuilderPlugin();
 
+  if (options.worker_threads < 0) return invalid_argument("worker_threads: must be >= 0");
+  if (!options.replay_dir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(options.replay_dir, ec);
+    if (!std::filesystem::is_directory(options.replay_dir, ec)) {
+      return invalid_argument("replay_dir: " + options.replay_dir + " is not a directory");
+    }
+  }
+
   std::unique_ptr<Server> server(new Server());
   server->registry_ = std::make_unique<Registry>(options.limits);
+  const int threads = options.worker_threads > 0
+                          ? options.worker_threads
+                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  server->pool_ = std::make_unique<RealTimePool>(threads);
+  server->replays_ = std::make_unique<ReplayStore>(options.replay_dir);
+  server->registry_->attach(server->pool_.get(), server->replays_.get());
   server->service_ = std::make_unique<PhysicsService>(server->registry_.get(), options.token);
 
   grpc::ServerBuilder builder;
@@ -47,10 +67,16 @@ Server::~Server() {
 void Server::shutdown(std::chrono::milliseconds grace) {
   if (stopped_) return;
   stopped_ = true;
+  if (!server_) {  // start() failed before serving
+    if (pool_) pool_->shutdown();
+    return;
+  }
   server_->GetHealthCheckService()->SetServingStatus(false);
   service_->begin_shutdown();
+  pool_->shutdown();
   server_->Shutdown(std::chrono::system_clock::now() + grace);
   server_->Wait();
+  registry_->close_all_recordings();  // after Wait: no call can open another
 }
 
 void Server::wait() {

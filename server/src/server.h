@@ -17,6 +17,8 @@ class Server;
 namespace fulcrum::server {
 
 class PhysicsService;
+class RealTimePool;
+class ReplayStore;
 
 struct ServerOptions {
   std::string listen = "127.0.0.1:50051";  // host:port; port 0 picks a free one
@@ -24,6 +26,8 @@ struct ServerOptions {
   int max_message_bytes = 64 << 20;  // largest request or reply, bytes
   std::string token;                 // bearer token; empty: no authentication
   bool reflection = true;            // register the server reflection service
+  int worker_threads = 0;            // real-time pool threads; 0: the hardware's concurrency
+  std::string replay_dir;            // where StartRecording writes; empty: recording is off
 };
 
 class Server {
@@ -38,8 +42,9 @@ class Server {
   const std::string& address() const { return address_; }
   Registry& registry() { return *registry_; }
 
-  // Health goes NOT_SERVING, open streams end (UNAVAILABLE), calls in progress get up to
-  // `grace` to finish before they are cancelled. Returns when the server has stopped.
+  // Health goes NOT_SERVING, open streams end (UNAVAILABLE), real-time clocks stop, calls in
+  // progress get up to `grace` to finish before they are cancelled, recordings are closed.
+  // Returns when the server has stopped (its pool threads joined).
   void shutdown(std::chrono::milliseconds grace);
   // Blocks until shutdown() has run (from another thread).
   void wait();
@@ -47,6 +52,8 @@ class Server {
  private:
   Server() = default;
 
+  std::unique_ptr<RealTimePool> pool_;
+  std::unique_ptr<ReplayStore> replays_;
   std::unique_ptr<Registry> registry_;
   std::unique_ptr<PhysicsService> service_;
   std::unique_ptr<grpc::Server> server_;

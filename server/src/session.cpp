@@ -68,6 +68,16 @@ void Session::refresh_summary_locked(uint64_t state_hash) {
   summary_.set_awake_body_count(m.awake_body_count);
   summary_.set_contact_count(m.contact_count);
   summary_.set_state_hash(state_hash);
+  runtime_to_proto_locked(&summary_);
+}
+
+void Session::tick_locked() {
+  world_.step();
+  if (recorder_) {
+    Status recorded = recorder_->after_tick(world_);
+    if (!recorded.ok()) end_recording_locked(recorded.message());
+  }
+  publish_tick_locked();
 }
 
 void Session::info(v1::WorldInfo* out) {
@@ -109,6 +119,7 @@ Status Session::apply_edits(const v1::EditBatch& batch, std::optional<int64_t> e
     }
     Result<EditOutcome> outcome = apply_edit_batch(&world_, batch, limits_.max_edits);
     if (!outcome.ok()) return outcome.status().with_prefix("batch.");
+    if (recorder_) recorder_->note_batch(batch);
     reply->set_tick(world_.tick());
     for (BodyId id : outcome->bodies) handle_to_proto(id.index, id.generation, reply->add_bodies());
     for (ShapeId id : outcome->shapes)
@@ -130,12 +141,13 @@ Status Session::step(uint32_t ticks, std::optional<int64_t> expected_tick, bool 
   }
   {
     Hold hold(this);
+    if (clock_.mode == v1::RUN_MODE_REAL_TIME) {
+      return failed_precondition("world " + std::to_string(id_) +
+                                 " runs in real time: pause it (SetRunMode PAUSED) to Step it");
+    }
     FULCRUM_RETURN_IF_ERROR(check_expected_tick(expected_tick, world_.tick()));
     const auto start = std::chrono::steady_clock::now();
-    for (uint32_t i = 0; i < ticks; ++i) {
-      world_.step();
-      publish_tick_locked();
-    }
+    for (uint32_t i = 0; i < ticks; ++i) tick_locked();
     const auto end = std::chrono::steady_clock::now();
     reply->set_tick(world_.tick());
     reply->set_state_hash(world_.state_hash());
@@ -177,6 +189,11 @@ Result<WorldSnapshot> decode_snapshot(const v1::SnapshotFile& file, const Limits
 Status Session::restore(const WorldSnapshot& records, v1::RestoreSnapshotReply* reply) {
   {
     Hold hold(this);
+    if (recorder_) {
+      return failed_precondition("world " + std::to_string(id_) + " is recording replay " +
+                                 recorder_->name() +
+                                 ": a replay cannot hold a rollback; stop recording first");
+    }
     FULCRUM_RETURN_IF_ERROR(world_.restore(records).with_prefix("snapshot: "));
     ++epoch_;
     reply->set_world_id(id_);
@@ -395,6 +412,9 @@ Status Registry::remove(uint64_t id) {
     session = std::move(it->second);
     worlds_.erase(it);
   }
+  session->retire();
+  if (pool_ != nullptr) pool_->stop(session.get());
+  session->close_recording();
   session->close_streams(not_found("world " + std::to_string(id) + " was deleted"), false);
   return {};
 }
@@ -409,6 +429,10 @@ std::vector<std::shared_ptr<Session>> Registry::list() const {
 
 void Registry::close_all_streams(const Status& status) {
   for (auto& s : list()) s->close_streams(status, true);
+}
+
+void Registry::close_all_recordings() {
+  for (auto& s : list()) s->close_recording();
 }
 
 }  // namespace fulcrum::server

@@ -13,12 +13,14 @@
 #include <string>
 #include <vector>
 
+#include "clock.h"
 #include "frames.h"
 #include "fulcrum/state.h"
 #include "fulcrum/status.h"
 #include "fulcrum/v1/frames.pb.h"
 #include "fulcrum/v1/service.pb.h"
 #include "fulcrum/world.h"
+#include "recorder.h"
 
 namespace fulcrum::server {
 
@@ -40,7 +42,7 @@ class FrameSink {
   virtual void close(const Status& status, bool shutting_down) = 0;
 };
 
-class Session {
+class Session : public std::enable_shared_from_this<Session> {
  public:
   Session(uint64_t id, std::string name, World world, const Limits& limits);
 
@@ -66,6 +68,29 @@ class Session {
   void unsubscribe(const FrameSink* sink);
   // Ends every stream (world deleted or server stopping).
   void close_streams(const Status& status, bool shutting_down);
+
+  // --- Real time (clock.cpp) ---
+  // Sets the run mode and puts the world on the pool's clock (REAL_TIME, the schedule starting
+  // now) or takes it off (PAUSED: no tick runs after the call returns).
+  Status set_run_mode(RealTimePool* pool, v1::RunMode mode, std::optional<uint32_t> max_catch_up,
+                      v1::SetRunModeReply* reply);
+  // Marks a deleted world: off the clock for good, and SetRunMode / StartRecording calls that
+  // found it before it was deleted are refused with NOT_FOUND.
+  void retire();
+  // One wake of the clock, on a pool thread: steps the ticks due by `now` (at most the cap,
+  // dropping the rest) unless an RPC holds the world. Returns when to wake next, or nullopt
+  // when the world no longer runs.
+  std::optional<SteadyClock::time_point> run_due_ticks(SteadyClock::time_point now);
+
+  // --- Replays on the server (recorder.cpp) ---
+  Status start_recording(ReplayStore* store, std::optional<uint32_t> keyframe_interval,
+                         v1::StartRecordingReply* reply);
+  // FAILED_PRECONDITION when the world is not recording.
+  Status stop_recording(v1::StopRecordingReply* reply);
+  // The current recording (up to its last complete tick) or the last one; NOT_FOUND if none.
+  Result<ReplayFileRef> replay_file();
+  // Closes an open recording (world deleted, server stopping).
+  void close_recording();
 
  private:
   struct Watcher {
@@ -101,14 +126,29 @@ class Session {
 
   // Copies tick, hash and counts into summary_; called with mu_ held at the end of every change.
   void refresh_summary_locked(uint64_t state_hash);
+  // One tick with mu_ held: step, record, publish.
+  void tick_locked();
+  // The run mode, clock counters and recording state (WorldInfo.run, .recording).
+  void runtime_to_proto_locked(v1::WorldInfo* out) const;
+  // Closes the recording after a failed write, keeping the error for WorldInfo.
+  void end_recording_locked(const std::string& error);
 
   const uint64_t id_;
   const std::string name_;
   const Limits limits_;
 
-  std::mutex mu_;  // guards world_ and epoch_; held for a whole Step
+  std::mutex mu_;  // guards world_, epoch_, clock_ and the recording; held for a whole Step
   World world_;
   uint64_t epoch_ = 0;
+  RealTimeClock clock_;
+  bool retired_ = false;                // deleted from the registry
+  std::unique_ptr<Recorder> recorder_;  // open recording, or null
+  ReplayFileRef last_replay_;           // the last closed recording (name empty: none)
+  int64_t last_replay_start_tick_ = 0;
+  int64_t last_replay_ticks_ = 0;
+  std::string recording_error_;
+  std::mutex run_mode_mu_;                        // one SetRunMode at a time (taken before mu_)
+  std::atomic<int64_t> busy_retries_pending_{0};  // wakes that found the world held
 
   std::mutex summary_mu_;  // guards summary_ (never held with another lock taken after it)
   v1::WorldInfo summary_;  // without settings or watchers
@@ -126,6 +166,13 @@ class Registry {
   explicit Registry(const Limits& limits) : limits_(limits) {}
 
   const Limits& limits() const { return limits_; }
+  // The real-time pool and the replay directory (server.cpp sets them before serving).
+  void attach(RealTimePool* pool, ReplayStore* replays) {
+    pool_ = pool;
+    replays_ = replays;
+  }
+  RealTimePool* pool() const { return pool_; }
+  ReplayStore* replays() const { return replays_; }
   // Checks the body limit, then adds the world (RESOURCE_EXHAUSTED when full).
   Result<std::shared_ptr<Session>> create(std::string name, World world);
   // NOT_FOUND naming `field` when there is no such world.
@@ -134,9 +181,13 @@ class Registry {
   std::vector<std::shared_ptr<Session>> list() const;
   // Ends every stream of every world (shutdown).
   void close_all_streams(const Status& status);
+  // Closes every open recording (shutdown).
+  void close_all_recordings();
 
  private:
   const Limits limits_;
+  RealTimePool* pool_ = nullptr;
+  ReplayStore* replays_ = nullptr;
   mutable std::mutex mu_;
   std::map<uint64_t, std::shared_ptr<Session>> worlds_;
   uint64_t next_id_ = 1;

@@ -61,6 +61,22 @@ grep -q "batch.edits: must not be empty" "$WORK/err.txt" || fail "empty: $(cat "
 "$F" worlds --server "$ADDR" | grep -q "^1 .*pyramid .* 90 .* 211 .*$remote_hash" ||
   fail "worlds does not list world 1 at tick 90"
 
+# Queries: the top box of the 20-row pyramid is hit by a ray straight down; a negative
+# coordinate is a number, not a flag; --mask 0 sees nothing; bad numbers are usage errors.
+out="$("$F" query 1 ray 0 50 0 -10 --server "$ADDR")"
+[[ "$out" == "1 hit"* ]] || fail "query ray: $out"
+out="$("$F" query 1 ray -30 0.5 30 0.5 --all --server "$ADDR")"
+[[ "$out" == "20 hits"* ]] || fail "query ray --all through the bottom row: $out"
+out="$("$F" query 1 aabb -1 0 1 1 --mask 0 --server "$ADDR")"
+[ "$out" = "0 shapes" ] || fail "query aabb --mask 0: $out"
+rc=0
+"$F" query 1 point x 1 --server "$ADDR" 2>"$WORK/err.txt" || rc=$?
+[ "$rc" -eq 2 ] || fail "query point x: exit $rc"
+
+# Replays need --replay-dir on the server: the server's message, exit code 1.
+if "$F" replay start 1 --server "$ADDR" 2>"$WORK/err.txt"; then fail "recording without a dir"; fi
+grep -q "replay-dir" "$WORK/err.txt" || fail "replay start: $(cat "$WORK/err.txt")"
+
 # SIGTERM with a watcher attached: the stream ends, the server exits 0.
 "$F" watch 1 --server "$ADDR" >"$WORK/watch.out" 2>"$WORK/watch.err" &
 WATCH=$!
@@ -79,4 +95,40 @@ if "$F" worlds --server "$ADDR" 2>"$WORK/err.txt"; then fail "no token accepted"
 grep -q "UNAUTHENTICATED" "$WORK/err.txt" || fail "no token: $(cat "$WORK/err.txt")"
 "$F" worlds --server "$ADDR" --token-file "$WORK/token" >/dev/null || fail "token refused"
 stop_server
+
+# Real time and a replay recorded on the server: run, step refused while running, pause (the
+# tick stays put), download while recording and after, verify; then SIGTERM closes a recording
+# still open and the file verifies.
+start_server replays --replay-dir "$WORK/replays" --worker-threads 2
+"$F" create --server "$ADDR" --scene "$SCENES/pyramid.json" >/dev/null
+out="$("$F" replay start 1 --server "$ADDR" --keyframes 20)"
+[ "$out" = "world 1: recording world1-1.replay from tick 0" ] || fail "replay start: $out"
+"$F" step 1 30 --server "$ADDR" >/dev/null
+"$F" run 1 --server "$ADDR" | grep -q "real time at 60 Hz from tick 30" || fail "run"
+if "$F" step 1 1 --server "$ADDR" 2>"$WORK/err.txt"; then fail "step while running"; fi
+grep -q "runs in real time" "$WORK/err.txt" || fail "step while running: $(cat "$WORK/err.txt")"
+sleep 0.5
+"$F" replay download 1 --out "$WORK/mid.replay" --server "$ADDR" >/dev/null || fail "download"
+"$F" replay verify "$WORK/mid.replay" >/dev/null || fail "the replay downloaded mid-run"
+out="$("$F" pause 1 --server "$ADDR")"
+paused_tick="$(echo "$out" | sed -n 's/.*paused at tick \([0-9]*\),.*/\1/p')"
+paused_hash="$(echo "$out" | sed -n 's/.*state hash \([0-9a-f]*\);.*/\1/p')"
+[ -n "$paused_tick" ] && [ "$paused_tick" -gt 30 ] || fail "pause: $out"
+sleep 0.3
+"$F" worlds --server "$ADDR" | grep -q "^1 .* $paused_tick .* paused .*world1-1.replay (on)" ||
+  fail "worlds after pause: $("$F" worlds --server "$ADDR")"
+"$F" replay stop 1 --server "$ADDR" | grep -q "closed: $paused_tick ticks" || fail "replay stop"
+"$F" replay download world1-1.replay --out "$WORK/full.replay" --server "$ADDR" >/dev/null ||
+  fail "download by name"
+out="$("$F" replay verify "$WORK/full.replay")"
+[[ "$out" == *"final tick $paused_tick, state hash $paused_hash" ]] || fail "verify: $out"
+if "$F" replay download nothing.replay --out "$WORK/x" --server "$ADDR" 2>"$WORK/err.txt"; then
+  fail "download of an unknown replay"
+fi
+grep -q "no replay nothing.replay" "$WORK/err.txt" || fail "unknown: $(cat "$WORK/err.txt")"
+"$F" replay start 1 --server "$ADDR" >/dev/null
+"$F" step 1 7 --server "$ADDR" >/dev/null
+stop_server
+out="$("$F" replay verify "$WORK/replays/world1-2.replay")" || fail "after SIGTERM: $out"
+[[ "$out" == *"7 ticks match"* ]] || fail "after SIGTERM: $out"
 echo "OK"

@@ -30,6 +30,32 @@ struct ClientOptions {
 // UNAVAILABLE, DEADLINE_EXCEEDED, ...) come back as kInternal with the gRPC code name leading
 // the message ("UNAVAILABLE: failed to connect to all addresses").
 
+enum class RunMode { kPaused, kRealTime };
+
+// A world's real-time clock (fulcrum.v1.RealTimeInfo): counters of the current run.
+struct RealTimeInfo {
+  RunMode mode = RunMode::kPaused;
+  double dt = 0.0;                   // s: the clock's period (the world's tick length)
+  uint32_t max_catch_up_ticks = 0;   // ticks per wake, at most
+  int64_t start_tick = 0;            // the tick the run started from
+  int64_t ticks_run = 0;             // ticks stepped by the clock in this run
+  int64_t ticks_dropped = 0;         // due ticks skipped because the server fell behind
+  int64_t late_wakes = 0;            // wakes with more ticks due than the cap
+  int64_t wakes = 0;                 // wakes that stepped at least one tick
+  uint32_t max_ticks_in_a_wake = 0;  // <= max_catch_up_ticks
+  int64_t busy_retries = 0;          // wakes put off while an RPC held the world
+};
+
+// A world's replay recording on the server (fulcrum.v1.RecordingInfo).
+struct RecordingInfo {
+  bool active = false;  // recording now
+  std::string name;     // the current or last recording; empty: none
+  int64_t start_tick = 0;
+  int64_t ticks = 0;   // ticks recorded
+  uint64_t bytes = 0;  // file size up to the last complete tick
+  std::string error;   // why a recording stopped early
+};
+
 struct WorldSummary {
   uint64_t id = 0;
   std::string name;
@@ -39,6 +65,27 @@ struct WorldSummary {
   int contact_count = 0;
   uint64_t state_hash = 0;
   uint32_t watchers = 0;
+  RealTimeInfo run;
+  RecordingInfo recording;
+};
+
+struct RunModeResult {
+  RunMode mode = RunMode::kPaused;
+  // Real time: the tick the clock starts from; paused: the tick the world stopped at.
+  int64_t tick = 0;
+};
+
+struct RecordingResult {
+  std::string name;    // the replay's name on the server
+  int64_t tick = 0;    // start: the tick of the header snapshot
+  int64_t ticks = 0;   // stop: ticks in the file
+  uint64_t bytes = 0;  // stop: file size
+};
+
+struct DownloadResult {
+  std::string name;
+  uint64_t bytes = 0;     // received, equal to the server's total_size
+  uint64_t checksum = 0;  // FNV-1a 64 of the bytes, checked against the server's
 };
 
 struct StepResult {
@@ -115,6 +162,14 @@ struct ShapeHit {
   BodyId body;
 };
 
+struct RayCastHit {
+  ShapeId shape;
+  BodyId body;
+  Vec2 point = Vec2::Zero();   // world, m
+  Vec2 normal = Vec2::Zero();  // world unit surface normal
+  double fraction = 0.0;       // along the translation, [0, 1]
+};
+
 class Client {
  public:
   // Opens a channel (lazily: a server that is down shows up on the first call).
@@ -144,10 +199,37 @@ class Client {
       uint64_t world, const SubscribeOptions& options,
       std::function<void(const Frame&)> on_frame) = 0;
 
+  // Queries see the world at its current tick; `filter` is the query's own category and mask
+  // (a shape is seen when each side's category meets the other's mask).
   virtual Result<std::optional<RayHit>> ray_cast_closest(uint64_t world, const Vec2& origin,
-                                                         const Vec2& translation) = 0;
-  virtual Result<std::vector<ShapeHit>> overlap_aabb(uint64_t world, const AABB& box) = 0;
-  virtual Result<std::vector<ShapeHit>> overlap_point(uint64_t world, const Vec2& point) = 0;
+                                                         const Vec2& translation,
+                                                         const QueryFilter& filter = {}) = 0;
+  // Every hit along the ray, by fraction then shape.
+  virtual Result<std::vector<RayCastHit>> ray_cast_all(uint64_t world, const Vec2& origin,
+                                                       const Vec2& translation,
+                                                       const QueryFilter& filter = {}) = 0;
+  virtual Result<std::vector<ShapeHit>> overlap_aabb(uint64_t world, const AABB& box,
+                                                     const QueryFilter& filter = {}) = 0;
+  virtual Result<std::vector<ShapeHit>> overlap_point(uint64_t world, const Vec2& point,
+                                                      const QueryFilter& filter = {}) = 0;
+
+  // Real time: the server steps the world at its dt until paused. While it runs, step() is
+  // refused (FAILED_PRECONDITION) and edits apply between two ticks. `max_catch_up_ticks`
+  // caps the ticks one wake may step when the server falls behind (default 5).
+  virtual Result<RunModeResult> set_run_mode(uint64_t world, RunMode mode,
+                                             std::optional<uint32_t> max_catch_up_ticks = {}) = 0;
+
+  // Replays on the server (needs fulcrum-server --replay-dir). A keyframe every
+  // `keyframe_interval` ticks (default 60, 0: none).
+  virtual Result<RecordingResult> start_recording(
+      uint64_t world, std::optional<uint32_t> keyframe_interval = {}) = 0;
+  virtual Result<RecordingResult> stop_recording(uint64_t world) = 0;
+  // Downloads a replay: by `name` when not empty, else the world's current or last recording.
+  // Chunks go to `sink` in order (a sink error ends the download with that error); the size
+  // and checksum are checked at the end (DATA_LOSS when they differ).
+  virtual Result<DownloadResult> download_replay(
+      uint64_t world, std::string_view name,
+      const std::function<Status(std::string_view chunk)>& sink) = 0;
 };
 
 }  // namespace fulcrum::client
