@@ -794,12 +794,15 @@ std::string markdown(const std::vector<CaseRun>& runs, const Options& o, const H
      << "." << b2_version.minor << "." << b2_version.revision << "): float, " << o.b2_vel
      << " velocity and " << o.b2_pos
      << " position iterations, warm starting and continuous collision on (its defaults).\n";
-  md << "- Fulcrum " << soft_label(WorldSettings{})
-     << " (the default): double, 4 substeps of 2 velocity iterations and 1 relax pass, soft "
-        "contacts at 45 Hz, joints at 60 Hz.\n";
-  md << "- Fulcrum classic 8: 1 substep, 8 velocity iterations, no relax pass, rigid Baumgarte "
-        "contacts with 0.005 m slop (contact_hertz 0), split impulses off; joints as in the "
-        "default (60 Hz).\n";
+  const WorldSettings d;
+  md << "- Fulcrum " << soft_label(d) << " (the default): double, " << d.substeps << " substeps of "
+     << d.velocity_iterations << " velocity iterations and " << d.relax_iterations
+     << " relax pass(es), soft contacts at " << num(d.contact_hertz) << " Hz, joints at "
+     << num(d.joint_hertz) << " Hz.\n";
+  md << "- Fulcrum classic 8 (as `fulcrum_sweep`'s): 1 substep, 8 velocity iterations, no relax "
+        "pass, rigid Baumgarte contacts with "
+     << num(d.linear_slop)
+     << " m slop (contact_hertz 0), split impulses off; joints as in the default.\n";
   md << "- Both engines: the same scene (bodies, outlines, masses and inertias, friction 0.6 "
         "mixed as sqrt(a b), restitution mixed as max, restitution threshold 1 m/s, filters), "
         "gravity (0, -10), dt 1/60 s, sleeping as the scene says.\n";
