@@ -146,8 +146,9 @@ class Box2DEngine final : public Engine {
   int vel_, pos_;
 };
 
-// The three columns of every case.
+// The three columns of every case, with the names the CSV gives them.
 enum EngineKind { kBox2D, kFulcrumSoft, kFulcrumClassic, kEngineCount };
+const char* const kEngineKeys[kEngineCount] = {"box2d", "fulcrum_default", "fulcrum_classic8"};
 
 // Fulcrum's classic step at 8 iterations, as fulcrum_sweep's "classic 8": 1 substep, no relax
 // pass, contact_hertz 0 (rigid Baumgarte with slop), split impulses off; the rest (joint
@@ -897,7 +898,7 @@ std::string markdown(const std::vector<CaseRun>& runs, const Options& o, const H
 }
 
 const char* const kCsvHeader =
-    "case_id,case,engine,ticks,repeats,ms_per_step,ratio_to_box2d,max_penetration_m,"
+    "case_id,case,engine,setting,ticks,repeats,ms_per_step,ratio_to_box2d,max_penetration_m,"
     "max_joint_error_m,max_limit_error_rad,max_stretch,displacement_m,bodies_out,energy_gain,"
     "pass,failed";
 
@@ -906,8 +907,8 @@ std::string csv(const std::vector<CaseRun>& runs) {
   for (const CaseRun& r : runs) {
     for (int e = 0; e < kEngineCount; ++e) {
       const Column& col = r.col[e];
-      out += std::to_string(r.c->id) + "," + r.c->name + "," + col.label + "," +
-             std::to_string(r.ticks) + "," + std::to_string(r.repeats) + "," +
+      out += std::to_string(r.c->id) + "," + r.c->name + "," + kEngineKeys[e] + "," + col.label +
+             "," + std::to_string(r.ticks) + "," + std::to_string(r.repeats) + "," +
              num(col.ms_per_step, 4) + "," + num(r.ratio(static_cast<EngineKind>(e)), 4);
       for (int k = 0; k < kMeasureCount; ++k) {
         out += ",";
