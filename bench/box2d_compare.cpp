@@ -751,6 +751,11 @@ std::string case_title(const Case& c) {
   return c.id > 0 ? std::to_string(c.id) : std::string("-");
 }
 
+// "2 large_pyramid", or the scene's name alone for a scene outside HARD_CASES.
+std::string case_name(const Case& c) {
+  return c.id > 0 ? std::to_string(c.id) + " " + c.name : c.name;
+}
+
 std::string load_average() {
   std::ifstream f("/proc/loadavg");
   double a = 0, b = 0, c = 0;
@@ -853,8 +858,7 @@ std::string markdown(const std::vector<CaseRun>& runs, const Options& o, const H
     for (const CaseRun& r : runs) {
       for (const Column& col : r.col) {
         if (col.m.failed.empty()) continue;
-        md << "- " << case_title(*r.c) << " " << r.c->name << ", " << col.label << ": "
-           << failures(col.m) << "\n";
+        md << "- " << case_name(*r.c) << ", " << col.label << ": " << failures(col.m) << "\n";
       }
     }
   }
@@ -890,7 +894,7 @@ std::string markdown(const std::vector<CaseRun>& runs, const Options& o, const H
     if (r.twin_notes.empty()) continue;
     if (!any_notes) md << "\nPer case:\n\n";
     any_notes = true;
-    md << "- " << case_title(*r.c) << " " << r.c->name << ": ";
+    md << "- " << case_name(*r.c) << ": ";
     for (size_t i = 0; i < r.twin_notes.size(); ++i) md << (i ? "; " : "") << r.twin_notes[i];
     md << "\n";
   }

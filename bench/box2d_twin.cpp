@@ -76,16 +76,18 @@ void inset(const Polygon& poly, double d, b2Vec2* out) {
   }
 }
 
+static_assert(kMaxPolygonVertices <= b2_maxPolygonVertices, "a Fulcrum polygon fits in Box2D's");
+
 void add_polygon(b2Body* body, const Polygon& poly, b2FixtureDef fd, const TwinOptions& options,
                  TwinNotes* notes) {
   b2Vec2 pts[b2_maxPolygonVertices];
-  const int n = std::min(poly.count, static_cast<int>(b2_maxPolygonVertices));
+  const int n = poly.count;
   // Fulcrum's outline is the core grown by poly.radius; 2.4.1's is the core grown by its
   // skin. Insetting the core by the difference makes the outlines' sides agree.
   const double d = options.compensate_skin ? b2_polygonRadius - poly.radius : 0.0;
   if (d != 0.0) {
     inset(poly, d, pts);
-    ++notes->inset_polygons;
+    ++(poly.radius > 0.0 ? notes->rounded_polygons : notes->inset_polygons);
   } else {
     for (int i = 0; i < n; ++i) pts[i] = to_b2(poly.vertices[i]);
   }
@@ -259,6 +261,9 @@ std::vector<std::string> TwinNotes::lines() const {
       "capsule(s) as a box over the core segment plus a circle at each end, mass and inertia "
       "set to Fulcrum's");
   add(inset_polygons, "polygon core(s) inset by the 0.01 m skin (outline = Fulcrum's)");
+  add(rounded_polygons,
+      "rounded polygon core(s) grown by Fulcrum's radius less the skin (sides = Fulcrum's, "
+      "corners rounded by 0.01 m instead of the radius)");
   add(skinned_segments, "segment(s) as two-sided edges, with 2.4.1's 0.01 m skin on top");
   add(wide_filters, "filter(s) truncated to 16 bits");
   add(revolute_springs, "revolute spring(s) dropped (2.4.1 has none)");
