@@ -802,8 +802,8 @@ std::string markdown(const std::vector<CaseRun>& runs, const Options& o, const H
      << " position iterations, warm starting and continuous collision on (its defaults).\n";
   const WorldSettings d;
   md << "- Fulcrum " << soft_label(d) << " (the default): double, " << d.substeps << " substeps of "
-     << d.velocity_iterations << " velocity iterations and " << d.relax_iterations
-     << " relax pass(es), soft contacts at " << num(d.contact_hertz) << " Hz, joints at "
+     << d.velocity_iterations << " velocity + " << d.relax_iterations
+     << " relax iterations, soft contacts at " << num(d.contact_hertz) << " Hz, joints at "
      << num(d.joint_hertz) << " Hz.\n";
   md << "- Fulcrum classic 8 (as `fulcrum_sweep`'s): 1 substep, 8 velocity iterations, no relax "
         "pass, rigid Baumgarte contacts with "
