@@ -1,490 +1,1065 @@
-// fulcrum_box2d_compare: builds the same builtin scenes in Fulcrum and in Box2D 2.4.1 and runs
-// both in this process, printing a Markdown table. The Box2D world is converted from the very
-// SceneDef Fulcrum builds from, so both engines start from identical bodies, shapes, materials
-// and settings (as far as Box2D can express them; see convert() for what differs).
+// fulcrum_box2d_compare: the hard cases of issue 6 side by side in Fulcrum and Box2D 2.4.1, in
+// one process. Box2D's world is the twin of the very SceneDef Fulcrum builds from (box2d_twin.h:
+// same bodies, outlines, masses, materials and joints), so both start from the same state.
 //
-// For each scene and engine: ms per step over steps 1..N-1 (step 0 creates the first contacts
-// and is excluded), median over R repeats; the largest penetration after the last step; the
-// number of dynamic bodies whose centre of mass moved more than 0.5 m; and Fulcrum/Box2D time.
+// Three engines per case: Box2D 2.4.1 (8 velocity and 3 position iterations, its float
+// defaults otherwise), Fulcrum at its default (the soft step, 4 substeps x 2 iterations) and
+// Fulcrum's classic step at 8 iterations (1 substep, rigid Baumgarte contacts). They are stepped
+// in alternation, `--chunk` ticks at a time, so that all three see the same machine load;
+// only the step call is inside the clock. ms per step is the mean over steps 1..N-1 of a run
+// (step 0 builds the first contacts), median over the case's runs (3, or 1 for the three largest
+// scenes; --repeats sets it for all). The error measures are read
+// from the body states of the first run, the same code for both engines (see Probe), with the
+// HARD_CASES pass criterion of each case as fulcrum_sweep and the tests judge it.
 //
-//   build/bin/fulcrum_box2d_compare                          # the default table
-//   build/bin/fulcrum_box2d_compare --scene tumbler --steps 300 --repeats 5
-//   build/bin/fulcrum_box2d_compare --b2-vel 10 --b2-pos 8
+//   build/bin/fulcrum_box2d_compare                          # every case, Markdown on stdout
+//   build/bin/fulcrum_box2d_compare --markdown docs/box2d.md # the same, also into the doc
+//   build/bin/fulcrum_box2d_compare --cases 2,9 --repeats 5
+//   build/bin/fulcrum_box2d_compare --cases tumbler --ticks 300 # any builtin scene
 #include <sys/utsname.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
+#include <fstream>
+#include <functional>
 #include <memory>
+#include <optional>
+#include <sstream>
 #include <string>
+#include <thread>
 #include <variant>
 #include <vector>
 
 #include <box2d/box2d.h>
 
+#include "box2d_twin.h"
 #include "fulcrum/scene.h"
 #include "fulcrum/scenes.h"
 #include "fulcrum/world.h"
 
 namespace {
 
-struct Entry {
-  std::string scene;
-  int steps = 0;
+using fulcrum::BodyId;
+using fulcrum::BodyState;
+using fulcrum::BodyType;
+using fulcrum::SceneBody;
+using fulcrum::SceneDef;
+using fulcrum::SceneJoint;
+using fulcrum::ShapeDef;
+using fulcrum::Vec2;
+using fulcrum::World;
+using fulcrum::WorldSettings;
+using fulcrum::bench::BodyMass;
+
+[[noreturn]] void die(const std::string& message) {
+  std::fprintf(stderr, "fulcrum_box2d_compare: %s\n", message.c_str());
+  std::exit(2);
+}
+
+std::string num(double v, int digits = 3) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
+  return buf;
+}
+
+constexpr double kPi = 3.14159265358979323846;
+
+// --- Engines ---------------------------------------------------------------------------------
+
+// One body as both engines report it, in double.
+struct Pose {
+  Vec2 origin = Vec2::Zero();  // body origin, m
+  double angle = 0.0;          // rad (Fulcrum: in (-pi, pi]; Box2D: unwrapped)
+  Vec2 center = Vec2::Zero();  // centre of mass, m
+  Vec2 velocity = Vec2::Zero();
+  double spin = 0.0;
+
+  Vec2 world_point(const Vec2& local) const {
+    double c = std::cos(angle), s = std::sin(angle);
+    return origin + Vec2(c * local.x() - s * local.y(), s * local.x() + c * local.y());
+  }
+  bool finite() const {
+    return std::isfinite(origin.x()) && std::isfinite(origin.y()) && std::isfinite(angle) &&
+           std::isfinite(velocity.x()) && std::isfinite(velocity.y()) && std::isfinite(spin);
+  }
 };
 
-// One engine's figures for one scene.
-struct Figures {
+class Engine {
+ public:
+  virtual ~Engine() = default;
+  virtual void step() = 0;
+  // Every body, in scene order.
+  virtual void read(std::vector<Pose>* out) = 0;
+  // The largest overlap over the current contact points, m (each engine's own manifolds).
+  virtual double max_penetration() = 0;
+};
+
+class FulcrumEngine final : public Engine {
+ public:
+  explicit FulcrumEngine(const SceneDef& scene)
+      : world_(std::move(fulcrum::build_world(scene).value())), ids_(world_.bodies()) {}
+  void step() override { world_.step(); }
+  void read(std::vector<Pose>* out) override {
+    out->resize(ids_.size());
+    for (size_t i = 0; i < ids_.size(); ++i) {
+      BodyState s = world_.body_state(ids_[i]).value();
+      (*out)[i] = {s.transform.p, s.transform.q.angle(), s.center, s.linear_velocity,
+                   s.angular_velocity};
+    }
+  }
+  double max_penetration() override { return world_.metrics().max_penetration; }
+
+ private:
+  World world_;
+  std::vector<BodyId> ids_;
+};
+
+class Box2DEngine final : public Engine {
+ public:
+  Box2DEngine(const SceneDef& scene, const std::vector<BodyMass>& masses,
+              const fulcrum::bench::TwinOptions& options, int vel_iters, int pos_iters,
+              fulcrum::bench::TwinNotes* notes)
+      : twin_(fulcrum::bench::build_box2d_twin(scene, masses, options, notes)),
+        dt_(static_cast<float>(scene.settings.dt)),
+        vel_(vel_iters),
+        pos_(pos_iters) {}
+  void step() override { twin_.world->Step(dt_, vel_, pos_); }
+  void read(std::vector<Pose>* out) override {
+    out->resize(twin_.bodies.size());
+    for (size_t i = 0; i < twin_.bodies.size(); ++i) {
+      const b2Body* b = twin_.bodies[i];
+      b2Vec2 p = b->GetPosition(), c = b->GetWorldCenter(), v = b->GetLinearVelocity();
+      (*out)[i] = {Vec2(p.x, p.y), b->GetAngle(), Vec2(c.x, c.y), Vec2(v.x, v.y),
+                   b->GetAngularVelocity()};
+    }
+  }
+  double max_penetration() override { return fulcrum::bench::box2d_max_penetration(*twin_.world); }
+
+ private:
+  fulcrum::bench::Twin twin_;
+  float dt_;
+  int vel_, pos_;
+};
+
+// The three columns of every case, with the names the CSV gives them.
+enum EngineKind { kBox2D, kFulcrumSoft, kFulcrumClassic, kEngineCount };
+const char* const kEngineKeys[kEngineCount] = {"box2d", "fulcrum_default", "fulcrum_classic8"};
+
+// Fulcrum's classic step at 8 iterations, as fulcrum_sweep's "classic 8": 1 substep, no relax
+// pass, contact_hertz 0 (rigid Baumgarte with slop), split impulses off; the rest (joint
+// softness included) is the scene's own.
+void apply_classic8(WorldSettings* s) {
+  s->substeps = 1;
+  s->velocity_iterations = 8;
+  s->relax_iterations = 0;
+  s->contact_hertz = 0.0;
+  s->split_impulses = false;
+}
+
+std::string soft_label(const WorldSettings& s) {
+  return "soft " + std::to_string(s.substeps) + "x" + std::to_string(s.velocity_iterations);
+}
+
+// --- Error measures --------------------------------------------------------------------------
+
+enum Measure {
+  kPenetration,   // m: largest overlap over contact points, every tick after the first second
+  kJointError,    // m: largest joint separation at any tick, from the bodies' world anchors
+  kLimitError,    // rad: largest angle past a revolute limit at any tick
+  kStretch,       // fraction: largest (length - rest) / rest of a distance joint
+  kDisplacement,  // m: the case's own "moved" distance (what it is: Case::labels)
+  kBodiesOut,     // the case's count of bodies beyond its bound
+  kEnergy,        // fraction of |E0|: mechanical energy gain
+  kMeasureCount
+};
+const char* const kMeasureCsv[kMeasureCount] = {
+    "max_penetration_m", "max_joint_error_m", "max_limit_error_rad", "max_stretch",
+    "displacement_m",    "bodies_out",        "energy_gain"};
+
+struct Measures {
+  std::array<std::optional<double>, kMeasureCount> value;
+  std::vector<std::string> failed;
+  bool judged = true;  // false for scenes without a HARD_CASES criterion
+
+  void set(Measure m, double v) { value[m] = v; }
+  void check(bool ok, const std::string& what) {
+    if (!ok) failed.push_back(what);
+  }
+  bool pass() const { return failed.empty(); }
+};
+
+// What a probe sees after each tick (and before the first, with tick 0).
+struct View {
+  const SceneDef& scene;
+  const std::vector<BodyMass>& masses;
+  const std::vector<Pose>& poses;
+  int tick;   // ticks stepped so far
+  int ticks;  // ticks in this run
+};
+
+std::vector<Vec2> centers(const View& v) {
+  std::vector<Vec2> out;
+  for (const Pose& p : v.poses) out.push_back(p.center);
+  return out;
+}
+
+bool is_dynamic(const SceneBody& b) {
+  return b.def.type == BodyType::kDynamic || b.def.type == BodyType::kParticle;
+}
+
+// Mechanical energy: kinetic + gravitational, over the dynamic bodies, with Fulcrum's masses
+// (which the Box2D twin carries too).
+double energy(const View& v) {
+  const Vec2 g = v.scene.settings.gravity;
+  double e = 0.0;
+  for (size_t i = 0; i < v.poses.size(); ++i) {
+    const BodyMass& m = v.masses[i];
+    if (!is_dynamic(v.scene.bodies[i]) || m.mass <= 0.0) continue;
+    const Pose& p = v.poses[i];
+    e += 0.5 * m.mass * fulcrum::length_squared(p.velocity) + 0.5 * m.inertia * p.spin * p.spin;
+    e -= m.mass * v.scene.bodies[i].def.gravity_scale * fulcrum::dot(g, p.center);
+  }
+  return e;
+}
+
+// The joint's wrapped relative angle, in (-pi, pi].
+double relative_angle(double a, double b, double reference) {
+  double r = std::remainder(b - a - reference, 2.0 * kPi);
+  return r <= -kPi ? r + 2.0 * kPi : r;
+}
+
+// How far one joint is from satisfied, from the world anchor points of both bodies, as
+// Fulcrum's JointState reports it: the anchor separation for revolute and weld joints, how far
+// the length is outside [min, max] for distance joints, the distance off the axis for prismatic
+// and wheel joints; motor joints (a target, not a constraint) give 0. `limit` gets the angle
+// past a revolute limit.
+double joint_error(const SceneJoint& sj, const std::vector<Pose>& poses, double* limit) {
+  const Pose& a = poses[sj.body_a];
+  const Pose& b = poses[sj.body_b];
+  *limit = 0.0;
+  return std::visit(
+      [&](const auto& def) -> double {
+        using Def = std::decay_t<decltype(def)>;
+        if constexpr (std::is_same_v<Def, fulcrum::MotorJointDef>) {
+          return 0.0;
+        } else {
+          Vec2 pa = a.world_point(def.local_anchor_a), pb = b.world_point(def.local_anchor_b);
+          Vec2 d = pb - pa;
+          if constexpr (std::is_same_v<Def, fulcrum::DistanceJointDef>) {
+            double len = fulcrum::length(d);
+            return std::max({0.0, def.min_length - len, len - def.max_length});
+          } else if constexpr (std::is_same_v<Def, fulcrum::PrismaticJointDef> ||
+                               std::is_same_v<Def, fulcrum::WheelJointDef>) {
+            Vec2 axis = a.world_point(def.local_axis_a) - a.world_point(Vec2::Zero());
+            return std::abs(fulcrum::cross(fulcrum::normalize_or_zero(axis), d));
+          } else {
+            if constexpr (std::is_same_v<Def, fulcrum::RevoluteJointDef>) {
+              if (def.enable_limit) {
+                double r = relative_angle(a.angle, b.angle, def.reference_angle);
+                *limit = std::max({0.0, def.lower_angle - r, r - def.upper_angle});
+              }
+            }
+            return fulcrum::length(d);
+          }
+        }
+      },
+      sj.def);
+}
+
+// --- Cases, each with its HARD_CASES criterion ----------------------------------------------
+
+// Per-case measurement on an engine-neutral view: begin() before the first tick, after_tick()
+// after each, finish() fills the case's own measures and criteria. The runner fills the common
+// ones (penetration, joint error, limit error) and checks for NaN.
+class Probe {
+ public:
+  virtual ~Probe() = default;
+  virtual void begin(const View&) {}
+  virtual void after_tick(const View&) {}
+  virtual void finish(const View&, Measures*) = 0;
+};
+
+void check_penetration(Measures* m, double limit, bool inclusive) {
+  double p = m->value[kPenetration].value_or(0.0);
+  m->check(inclusive ? p <= limit : p < limit,
+           "penetration " + num(p) + (inclusive ? " > " : " >= ") + num(limit));
+}
+
+// Case 1: the top box moves < 5 cm sideways; penetration <= 2 x slop.
+class StackProbe : public Probe {
+  std::vector<Vec2> start_;
+
+ public:
+  void begin(const View& v) override { start_ = centers(v); }
+  void finish(const View& v, Measures* m) override {
+    std::vector<Vec2> end = centers(v);
+    double drift = std::abs(end.back().x() - start_.back().x());
+    int out = 0;
+    for (size_t i = 1; i < end.size(); ++i) out += std::abs(end[i].x() - start_[i].x()) >= 0.05;
+    m->set(kDisplacement, drift);
+    m->set(kBodiesOut, out);
+    m->check(drift < 0.05, "top drift " + num(drift) + " >= 0.05");
+    check_penetration(m, 2.0 * v.scene.settings.linear_slop, true);
+  }
+};
+
+// Cases 2 and 3: no box moves more than 0.5 m; penetration <= 2 x slop; for the large pyramid
+// also the top box drops < 10 cm after settling (at 2/5 of the run, tick 200 of 500).
+class PyramidProbe : public Probe {
+  bool top_drop_;
+  double settled_y_ = 0.0;
+  std::vector<Vec2> built_;
+
+ public:
+  explicit PyramidProbe(bool top_drop) : top_drop_(top_drop) {}
+  void begin(const View& v) override { built_ = centers(v); }
+  void after_tick(const View& v) override {
+    if (v.tick == v.ticks * 2 / 5) settled_y_ = v.poses.back().center.y();
+  }
+  void finish(const View& v, Measures* m) override {
+    double worst = 0.0;
+    int moved = 0;
+    for (size_t i = 0; i < v.poses.size(); ++i) {
+      double d = fulcrum::distance(built_[i], v.poses[i].center);
+      worst = std::max(worst, d);
+      moved += d > 0.5;
+    }
+    m->set(kDisplacement, worst);
+    m->set(kBodiesOut, moved);
+    m->check(moved == 0, std::to_string(moved) + " boxes moved > 0.5 m");
+    if (top_drop_) {
+      double drop = settled_y_ - v.poses.back().center.y();
+      m->check(drop < 0.10, "top drop " + num(drop) + " >= 0.1");
+    }
+    check_penetration(m, 2.0 * v.scene.settings.linear_slop, true);
+  }
+};
+
+// Case 4: no box centre moves 10 cm or more; penetration < 5 cm.
+class MassRatio100Probe : public Probe {
+  std::vector<Vec2> start_;
+
+ public:
+  void begin(const View& v) override { start_ = centers(v); }
+  void finish(const View& v, Measures* m) override {
+    double worst = 0.0;
+    int out = 0;
+    for (size_t i = 0; i < v.poses.size(); ++i) {
+      double d = fulcrum::distance(start_[i], v.poses[i].center);
+      worst = std::max(worst, d);
+      out += d >= 0.10;
+    }
+    m->set(kDisplacement, worst);
+    m->set(kBodiesOut, out);
+    m->check(worst < 0.10, "moved " + num(worst) + " >= 0.1");
+    check_penetration(m, 0.05, false);
+  }
+};
+
+// Case 5: the small boxes (bodies 1, 2) stay within 0.25 m of their start sideways and above
+// 0.4 m at every tick, the big box (body 3) ends above 10.5 m; penetration < 10 cm.
+class MassRatio400Probe : public Probe {
+  double x0_[2] = {0.0, 0.0};
+  double worst_dx_ = 0.0, lowest_ = 1e300;
+
+ public:
+  void begin(const View& v) override {
+    for (int k = 0; k < 2; ++k) x0_[k] = v.poses[1 + k].center.x();
+  }
+  void after_tick(const View& v) override {
+    for (int k = 0; k < 2; ++k) {
+      const Vec2& p = v.poses[1 + k].center;
+      worst_dx_ = std::max(worst_dx_, std::abs(p.x() - x0_[k]));
+      lowest_ = std::min(lowest_, p.y());
+    }
+  }
+  void finish(const View& v, Measures* m) override {
+    double big_y = v.poses[3].center.y();
+    m->set(kDisplacement, worst_dx_);
+    m->set(kBodiesOut, (worst_dx_ >= 0.25) + (lowest_ <= 0.4) + (big_y <= 10.5));
+    m->check(worst_dx_ < 0.25, "small box pushed " + num(worst_dx_) + " >= 0.25");
+    m->check(lowest_ > 0.4, "small box down to " + num(lowest_) + " <= 0.4");
+    m->check(big_y > 10.5, "big box at " + num(big_y) + " <= 10.5");
+    check_penetration(m, 0.10, false);
+  }
+};
+
+// Cases 9, 10 and 11: the largest joint separation stays under `limit` at every tick. The chain
+// (10) also never gains mechanical energy (beyond 1e-6 of |E0|); the bridge (11) holds a steady
+// sag: its middle plank (body 81) varies in height by less than 1 cm over the last second.
+class JointProbe : public Probe {
+  double limit_;
+  bool energy_, sag_;
+  double e0_ = 0.0, e_max_ = 0.0, sag_lo_ = 1e300, sag_hi_ = -1e300;
+
+ public:
+  JointProbe(double limit, bool energy, bool sag) : limit_(limit), energy_(energy), sag_(sag) {}
+  void begin(const View& v) override {
+    if (energy_) e0_ = e_max_ = energy(v);
+  }
+  void after_tick(const View& v) override {
+    if (energy_) e_max_ = std::max(e_max_, energy(v));
+    if (sag_ && v.tick > v.ticks - 60) {
+      double y = v.poses[81].center.y();
+      sag_lo_ = std::min(sag_lo_, y);
+      sag_hi_ = std::max(sag_hi_, y);
+    }
+  }
+  void finish(const View&, Measures* m) override {
+    double err = m->value[kJointError].value_or(0.0);
+    m->check(err < limit_, "joint error " + num(err) + " >= " + num(limit_));
+    if (energy_) {
+      double gain = (e_max_ - e0_) / std::abs(e0_);
+      m->set(kEnergy, gain);
+      m->check(gain <= 1e-6, "energy gain " + num(gain) + " of |E0|");
+    }
+    if (sag_) {
+      double swing = sag_hi_ - sag_lo_;
+      m->set(kDisplacement, swing);
+      m->check(swing < 0.01, "sag swings " + num(swing) + " m in the last second");
+    }
+  }
+};
+
+// Case 12: joint separation < 5 cm and no limit passed by 0.05 rad at any tick, and every
+// ragdoll fell (each pelvis, bodies 1 + 11 i, ends below 2 m).
+class RagdollProbe : public Probe {
+ public:
+  void finish(const View& v, Measures* m) override {
+    double err = m->value[kJointError].value_or(0.0);
+    double limit = m->value[kLimitError].value_or(0.0);
+    int standing = 0;
+    for (size_t i = 1; i < v.poses.size(); i += 11) standing += v.poses[i].center.y() >= 2.0;
+    m->set(kBodiesOut, standing);
+    m->check(err < 0.05, "joint error " + num(err) + " >= 0.05");
+    m->check(limit < 0.05, "limit passed by " + num(limit) + " rad");
+    m->check(standing == 0, std::to_string(standing) + " ragdolls above 2 m");
+  }
+};
+
+// Case 13: no distance joint stretched 5 % or more ((length - rest) / rest), sampled every
+// tick through the first half second and every 5th tick after, as the cloth test samples it.
+class ClothProbe : public Probe {
+  double worst_ = 0.0;
+
+ public:
+  void after_tick(const View& v) override {
+    int i = v.tick - 1;
+    if (i > 30 && i % 5 != 4) return;
+    for (const SceneJoint& sj : v.scene.joints) {
+      const auto* d = std::get_if<fulcrum::DistanceJointDef>(&sj.def);
+      if (d == nullptr) continue;
+      Vec2 pa = v.poses[sj.body_a].world_point(d->local_anchor_a);
+      Vec2 pb = v.poses[sj.body_b].world_point(d->local_anchor_b);
+      worst_ = std::max(worst_, (fulcrum::distance(pa, pb) - d->length) / d->length);
+    }
+  }
+  void finish(const View&, Measures* m) override {
+    m->set(kStretch, worst_);
+    m->check(worst_ < 0.05, "stretch " + num(worst_) + " >= 0.05");
+  }
+};
+
+// Any other builtin scene: how far the bodies moved, no criterion.
+class GenericProbe : public Probe {
+  std::vector<Vec2> start_;
+
+ public:
+  void begin(const View& v) override { start_ = centers(v); }
+  void finish(const View& v, Measures* m) override {
+    double worst = 0.0;
+    int moved = 0;
+    for (size_t i = 0; i < v.poses.size(); ++i) {
+      double d = fulcrum::distance(start_[i], v.poses[i].center);
+      worst = std::max(worst, d);
+      moved += d > 0.5;
+    }
+    m->set(kDisplacement, worst);
+    m->set(kBodiesOut, moved);
+    m->judged = false;
+  }
+};
+
+// Case 10: 40 capsule links 1 m long (radius 0.125) laid out horizontally from a static anchor
+// at (0, 50), then a ball of radius 0.5 with 100 times one link's mass, revolute joints at the
+// link ends: the scene tests/engine/joint_test.cpp and fulcrum_sweep build (the registry has
+// no builtin for it).
+SceneDef heavy_chain() {
+  const double r = 0.125;
+  ShapeDef link;
+  link.geometry = fulcrum::Capsule{Vec2(-0.5 + r, 0.0), Vec2(0.5 - r, 0.0), r};
+  SceneDef probe;
+  probe.bodies.push_back(SceneBody{});
+  probe.bodies[0].def.type = BodyType::kDynamic;
+  probe.bodies[0].shapes.push_back(link);
+  const double link_mass = fulcrum::bench::fulcrum_masses(probe)[0].mass;
+
+  SceneDef s;
+  SceneBody anchor;
+  anchor.def.position = Vec2(0.0, 50.0);
+  s.bodies.push_back(anchor);
+  for (int i = 0; i < 41; ++i) {
+    const bool ball = i == 40;
+    SceneBody b;
+    b.def.type = BodyType::kDynamic;
+    b.def.position = Vec2(ball ? 40.5 : 0.5 + i, 50.0);
+    ShapeDef shape = link;
+    if (ball) {
+      shape.geometry = fulcrum::Circle{Vec2::Zero(), 0.5};
+      shape.density = 100.0 * link_mass / (kPi * 0.25);
+    }
+    b.shapes.push_back(shape);
+    s.bodies.push_back(b);
+    fulcrum::RevoluteJointDef j;
+    j.local_anchor_a = i == 0 ? Vec2::Zero() : Vec2(0.5, 0.0);
+    j.local_anchor_b = Vec2(-0.5, 0.0);
+    s.joints.push_back(SceneJoint{i, i + 1, j});
+  }
+  return s;
+}
+
+SceneDef builtin(const std::string& name) {
+  auto s = fulcrum::scenes::builtin(name);
+  if (!s.ok()) die(s.status().to_string());
+  return std::move(s).value();
+}
+
+struct Case {
+  int id = 0;  // HARD_CASES number (0: another builtin scene)
+  std::string name;
+  std::string criterion;
+  std::function<SceneDef()> scene;
+  int ticks = 600;
+  // The measures that apply, with the name each goes by in this case.
+  std::vector<std::pair<Measure, std::string>> labels;
+  std::function<std::unique_ptr<Probe>()> probe;
+  // Runs to take the median of, unless --repeats says otherwise: one for the three largest
+  // scenes, whose one run already times 499 steps of each engine in alternation.
+  int repeats = 3;
+};
+
+template <class P, class... Args>
+std::function<std::unique_ptr<Probe>()> make(Args... args) {
+  return [=] { return std::unique_ptr<Probe>(new P(args...)); };
+}
+
+std::vector<Case> all_cases() {
+  const auto pen = std::pair{kPenetration, std::string("max penetration (m)")};
+  const auto joint = std::pair{kJointError, std::string("max joint separation (m)")};
+  auto scene = [](const char* name) { return [name] { return builtin(name); }; };
+  std::vector<Case> c;
+  // clang-format off
+  c.push_back({1, "vertical_stack", "top box moves < 5 cm sideways; penetration <= 2 x slop",
+      scene("vertical_stack"), 600,
+      {{kDisplacement, "top box drift (m)"}, pen, {kBodiesOut, "boxes moved >= 5 cm sideways"}},
+      make<StackProbe>()});
+  c.push_back({2, "large_pyramid",
+      "no box moves > 0.5 m; top box drops < 10 cm after settling; penetration <= 2 x slop",
+      scene("large_pyramid"), 500,
+      {pen, {kBodiesOut, "boxes moved > 0.5 m"}, {kDisplacement, "largest move (m)"}},
+      make<PyramidProbe>(true), 1});
+  c.push_back({3, "many_pyramids", "no box moves > 0.5 m; penetration <= 2 x slop",
+      scene("many_pyramids"), 500,
+      {pen, {kBodiesOut, "boxes moved > 0.5 m"}, {kDisplacement, "largest move (m)"}},
+      make<PyramidProbe>(false), 1});
+  c.push_back({4, "mass_ratio_100", "no box moves >= 10 cm; penetration < 5 cm",
+      scene("mass_ratio_100"), 600,
+      {{kDisplacement, "largest move (m)"}, pen, {kBodiesOut, "boxes moved >= 10 cm"}},
+      make<MassRatio100Probe>()});
+  c.push_back({5, "mass_ratio_400",
+      "small boxes within 0.25 m sideways and above 0.4 m; big box ends above 10.5 m; "
+      "penetration < 10 cm",
+      scene("mass_ratio_400"), 600,
+      {pen, {kDisplacement, "small box pushed (m)"}, {kBodiesOut, "small-box criteria missed"}},
+      make<MassRatio400Probe>()});
+  c.push_back({9, "joint_grid", "no NaN; largest joint separation < 10 cm", scene("joint_grid"),
+      500, {joint}, make<JointProbe>(0.10, false, false), 1});
+  c.push_back({10, "heavy_chain", "largest joint separation < 5 cm; no energy gain", heavy_chain,
+      600, {joint, {kEnergy, "energy gain (of |E0|)"}}, make<JointProbe>(0.05, true, false)});
+  c.push_back({11, "bridge",
+      "largest joint separation < 5 cm; sag steady (middle plank moves < 1 cm in the last second)",
+      scene("bridge"), 600, {joint, {kDisplacement, "sag swing, last 1 s (m)"}},
+      make<JointProbe>(0.05, false, true)});
+  c.push_back({12, "ragdolls", "no NaN; joint separation < 5 cm; limits passed by < 0.05 rad",
+      scene("ragdolls"), 600,
+      {joint, {kLimitError, "past a limit (rad)"}, pen, {kBodiesOut, "ragdolls not down"}},
+      make<RagdollProbe>()});
+  c.push_back({13, "cloth", "no constraint stretched 5 % or more; no NaN", scene("cloth"), 600,
+      {{kStretch, "max stretch"}, joint}, make<ClothProbe>()});
+  // clang-format on
+  return c;
+}
+
+Case generic_case(const std::string& name) {
+  builtin(name);  // dies with the list of known scenes when there is no such scene
+  return {0,
+          name,
+          "",
+          [name] { return builtin(name); },
+          500,
+          {{kPenetration, "max penetration (m)"},
+           {kJointError, "max joint separation (m)"},
+           {kBodiesOut, "bodies moved > 0.5 m"},
+           {kDisplacement, "largest move (m)"}},
+          make<GenericProbe>()};
+}
+
+bool applies(const Case& c, Measure m) {
+  return std::any_of(c.labels.begin(), c.labels.end(), [&](const auto& l) { return l.first == m; });
+}
+
+// --- Running ---------------------------------------------------------------------------------
+
+struct Options {
+  int repeats = 0;  // 0: each case's own
+  int ticks = 0;    // 0: each case's own
+  int chunk = 20;
+  int b2_vel = 8;
+  int b2_pos = 3;
+  fulcrum::bench::TwinOptions twin;
+};
+
+struct Column {
+  std::string label;
   double ms_per_step = 0.0;
-  double max_penetration = 0.0;
-  int moved = 0;
-  // How the moved bodies moved, to tell a collapse (large sideways or downward moves) from a
-  // structure that merely expanded or drifted: mean displacement, largest, and lowest dy.
-  double sum_dx = 0.0, sum_dy = 0.0, max_move = 0.0, min_dy = 0.0;
-  int dynamic_bodies = 0;
+  Measures m;
 };
 
-// What the conversion could not carry over exactly, so the output can say so.
-struct ConversionNotes {
-  int skipped_capsules = 0;
-  int rounded_polygons = 0;  // polygon radius dropped (Box2D's skin is fixed)
-  int wide_filters = 0;      // filter bits beyond Box2D's 16 (truncated)
-  int skipped_joints = 0;    // joint kinds the twin does not convert (weld, prismatic, ...)
-};
+struct CaseRun {
+  const Case* c = nullptr;
+  int ticks = 0, repeats = 0;
+  int dynamic_bodies = 0, joints = 0;
+  std::array<Column, kEngineCount> col;
+  std::vector<std::string> twin_notes;
 
-using Clock = std::chrono::steady_clock;
+  double ratio(EngineKind k) const {
+    double b = col[kBox2D].ms_per_step;
+    return b > 0.0 ? col[k].ms_per_step / b : 0.0;
+  }
+};
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v[v.size() / 2];
 }
 
-bool is_dynamic(fulcrum::BodyType t) {
-  // Particles are dynamic bodies without rotation; Box2D gets them as fixed-rotation bodies.
-  return t == fulcrum::BodyType::kDynamic || t == fulcrum::BodyType::kParticle;
-}
+CaseRun run_case(const Case& c, const Options& o) {
+  CaseRun run;
+  run.c = &c;
+  const SceneDef scene = c.scene();
+  SceneDef classic = scene;
+  apply_classic8(&classic.settings);
+  const std::vector<BodyMass> masses = fulcrum::bench::fulcrum_masses(scene);
+  run.ticks = std::max(2, o.ticks > 0 ? o.ticks : c.ticks);
+  run.repeats = o.repeats > 0 ? o.repeats : c.repeats;
+  for (const SceneBody& b : scene.bodies) run.dynamic_bodies += is_dynamic(b);
+  run.joints = static_cast<int>(scene.joints.size());
+  run.col[kBox2D].label = "Box2D " + std::to_string(o.b2_vel) + "+" + std::to_string(o.b2_pos);
+  run.col[kFulcrumSoft].label = "Fulcrum " + soft_label(scene.settings);
+  run.col[kFulcrumClassic].label = "Fulcrum classic 8";
 
-void count_move(double dx, double dy, Figures* f) {
-  double d = std::hypot(dx, dy);
-  if (d <= 0.5) return;
-  ++f->moved;
-  f->sum_dx += dx;
-  f->sum_dy += dy;
-  f->max_move = std::max(f->max_move, d);
-  f->min_dy = f->moved == 1 ? dy : std::min(f->min_dy, dy);
-}
+  std::array<std::vector<double>, kEngineCount> times;
+  for (int r = 0; r < run.repeats; ++r) {
+    const bool measure = r == 0;
+    fulcrum::bench::TwinNotes notes;
+    std::array<std::unique_ptr<Engine>, kEngineCount> engines;
+    engines[kBox2D] =
+        std::make_unique<Box2DEngine>(scene, masses, o.twin, o.b2_vel, o.b2_pos, &notes);
+    engines[kFulcrumSoft] = std::make_unique<FulcrumEngine>(scene);
+    engines[kFulcrumClassic] = std::make_unique<FulcrumEngine>(classic);
+    if (measure) run.twin_notes = notes.lines();
 
-std::string describe_moves(const char* engine, const Figures& f) {
-  char buf[256];
-  std::snprintf(buf, sizeof buf,
-                "%s: %d moved, mean displacement (%.3f, %.3f) m, largest %.3f m, lowest dy %.3f m",
-                engine, f.moved, f.sum_dx / f.moved, f.sum_dy / f.moved, f.max_move, f.min_dy);
-  return buf;
-}
-
-// --- Fulcrum ---------------------------------------------------------------------------------
-
-Figures run_fulcrum(const fulcrum::SceneDef& scene, int steps) {
-  fulcrum::World world = std::move(fulcrum::build_world(scene).value());
-  std::vector<fulcrum::Vec2> start;
-  for (fulcrum::BodyId id : world.bodies()) start.push_back(world.body_state(id)->center);
-
-  world.step();
-  auto t0 = Clock::now();
-  for (int i = 1; i < steps; ++i) world.step();
-  auto t1 = Clock::now();
-
-  Figures f;
-  f.ms_per_step = std::chrono::duration<double, std::milli>(t1 - t0).count() / (steps - 1);
-  f.max_penetration = world.metrics().max_penetration;
-  size_t k = 0;
-  for (fulcrum::BodyId id : world.bodies()) {
-    fulcrum::BodyState s = *world.body_state(id);
-    if (is_dynamic(s.type)) {
-      ++f.dynamic_bodies;
-      count_move(s.center.x() - start[k].x(), s.center.y() - start[k].y(), &f);
+    std::array<std::vector<Pose>, kEngineCount> poses;
+    std::array<std::unique_ptr<Probe>, kEngineCount> probes;
+    std::array<double, kEngineCount> timed{}, pen{}, joint{}, limit{};
+    if (measure) {
+      for (int e = 0; e < kEngineCount; ++e) {
+        engines[e]->read(&poses[e]);
+        probes[e] = c.probe();
+        probes[e]->begin(View{scene, masses, poses[e], 0, run.ticks});
+      }
     }
-    ++k;
+    // The engines take turns, `chunk` ticks each, starting with a different one each round.
+    for (int t0 = 0, round = 0; t0 < run.ticks; t0 += o.chunk, ++round) {
+      const int t1 = std::min(run.ticks, t0 + o.chunk);
+      for (int k = 0; k < kEngineCount; ++k) {
+        const int e = (k + round) % kEngineCount;
+        Engine& engine = *engines[e];
+        for (int t = t0; t < t1; ++t) {
+          auto start = std::chrono::steady_clock::now();
+          engine.step();
+          auto stop = std::chrono::steady_clock::now();
+          if (t >= 1) timed[e] += std::chrono::duration<double, std::milli>(stop - start).count();
+          if (!measure) continue;
+          engine.read(&poses[e]);
+          const int tick = t + 1;
+          if (applies(c, kPenetration) && tick > 60) {
+            pen[e] = std::max(pen[e], engine.max_penetration());
+          }
+          for (const SceneJoint& sj : scene.joints) {
+            double lim = 0.0;
+            joint[e] = std::max(joint[e], joint_error(sj, poses[e], &lim));
+            limit[e] = std::max(limit[e], lim);
+          }
+          probes[e]->after_tick(View{scene, masses, poses[e], tick, run.ticks});
+        }
+      }
+    }
+    for (int e = 0; e < kEngineCount; ++e) {
+      times[e].push_back(timed[e] / (run.ticks - 1));
+      if (!measure) continue;
+      Measures& m = run.col[e].m;
+      if (applies(c, kPenetration)) m.set(kPenetration, pen[e]);
+      if (applies(c, kJointError)) m.set(kJointError, joint[e]);
+      if (applies(c, kLimitError)) m.set(kLimitError, limit[e]);
+      bool finite =
+          std::all_of(poses[e].begin(), poses[e].end(), [](const Pose& p) { return p.finite(); });
+      m.check(finite, "NaN or infinity");
+      probes[e]->finish(View{scene, masses, poses[e], run.ticks, run.ticks}, &m);
+    }
   }
-  return f;
+  for (int e = 0; e < kEngineCount; ++e) run.col[e].ms_per_step = median(times[e]);
+  return run;
 }
 
-// --- Box2D -----------------------------------------------------------------------------------
+// --- Output ----------------------------------------------------------------------------------
 
-b2Vec2 to_b2(const fulcrum::Vec2& v) {
-  return b2Vec2(static_cast<float>(v.x()), static_cast<float>(v.y()));
+std::string cell(const Measures& m, Measure k) {
+  if (!m.value[k]) return "-";
+  double v = *m.value[k];
+  if (k == kBodiesOut) return std::to_string(static_cast<long long>(v));
+  return num(v);
 }
 
-b2BodyType to_b2(fulcrum::BodyType t) {
-  switch (t) {
-    case fulcrum::BodyType::kStatic:
-      return b2_staticBody;
-    case fulcrum::BodyType::kKinematic:
-      return b2_kinematicBody;
-    case fulcrum::BodyType::kDynamic:
-    case fulcrum::BodyType::kParticle:
-      break;
+std::string verdict(const Measures& m) {
+  if (!m.judged) return "-";
+  return m.pass() ? "pass" : "**fail**";
+}
+
+std::string failures(const Measures& m) {
+  std::string out;
+  for (const std::string& f : m.failed) out += (out.empty() ? "" : "; ") + f;
+  return out.empty() ? "-" : out;
+}
+
+std::string case_title(const Case& c) {
+  return c.id > 0 ? std::to_string(c.id) : std::string("-");
+}
+
+// "2 large_pyramid", or the scene's name alone for a scene outside HARD_CASES.
+std::string case_name(const Case& c) {
+  return c.id > 0 ? std::to_string(c.id) + " " + c.name : c.name;
+}
+
+std::string load_average() {
+  std::ifstream f("/proc/loadavg");
+  double a = 0, b = 0, c = 0;
+  if (!(f >> a >> b >> c)) return "unknown";
+  return num(a) + " " + num(b) + " " + num(c);
+}
+
+struct Header {
+  std::string command, date, machine, load_before, load_after;
+  double seconds = 0.0;
+};
+
+// The case-2 target of issue 6: Fulcrum's time per step at most 1.0x Box2D 2.4.1's on the large
+// pyramid at 60 Hz, with penetration no larger.
+void case2_target(std::ostringstream& o, const CaseRun& r) {
+  const Column& b = r.col[kBox2D];
+  double bp = b.m.value[kPenetration].value_or(0.0);
+  o << "\n## Case 2 target\n\nIssue 6: on the large pyramid at 60 Hz, Fulcrum's time per step at "
+       "most 1.0x Box2D 2.4.1's (8 velocity + 3 position iterations), with penetration no "
+       "larger. Penetration: the largest over every tick after the first second.\n\n"
+       "| Fulcrum setting | ms/step | Box2D ms/step | ratio | time target | penetration (m) | "
+       "Box2D penetration (m) | penetration target | stands (HARD_CASES 2) |\n"
+       "|---|---|---|---|---|---|---|---|---|\n";
+  for (EngineKind k : {kFulcrumClassic, kFulcrumSoft}) {
+    const Column& f = r.col[k];
+    double fp = f.m.value[kPenetration].value_or(0.0);
+    o << "| " << f.label << " | " << num(f.ms_per_step) << " | " << num(b.ms_per_step) << " | "
+      << num(r.ratio(k)) << " | " << (r.ratio(k) <= 1.0 ? "met" : "**missed**") << " | " << num(fp)
+      << " | " << num(bp) << " | " << (fp <= bp ? "met" : "**missed**") << " | " << verdict(f.m)
+      << " |\n";
   }
-  return b2_dynamicBody;
+  o << "\nBox2D itself: " << verdict(b.m) << " (" << failures(b.m) << ").\n";
 }
 
-b2Filter to_b2(const fulcrum::Filter& f, ConversionNotes* notes) {
-  // Box2D 2.4.1 has 16-bit categories and groups; every builtin scene uses the defaults, which
-  // survive the truncation (all-ones mask, category 1, group 0).
-  b2Filter out;
-  out.categoryBits = static_cast<uint16>(f.category_bits & 0xFFFF);
-  out.maskBits = static_cast<uint16>(f.mask_bits & 0xFFFF);
-  out.groupIndex = static_cast<int16>(f.group_index);
-  bool mask_ok = f.mask_bits == ~uint64_t{0} || (f.mask_bits >> 16) == 0;
-  if ((f.category_bits >> 16) != 0 || !mask_ok || f.group_index != out.groupIndex) {
-    ++notes->wide_filters;
+std::string markdown(const std::vector<CaseRun>& runs, const Options& o, const Header& h) {
+  std::ostringstream md;
+  md << "# Fulcrum and Box2D 2.4.1 side by side\n\n";
+  md << "Written by `" << h.command << "` on " << h.date << ", " << h.machine << " ("
+     << std::thread::hardware_concurrency() << " hardware threads, load average " << h.load_before
+     << " before, " << h.load_after << " after), in " << num(h.seconds, 3) << " s.\n\n";
+  md << "- Box2D 2.4.1 (Debian `libbox2d-dev`; the library reports b2_version " << b2_version.major
+     << "." << b2_version.minor << "." << b2_version.revision << "): float, " << o.b2_vel
+     << " velocity and " << o.b2_pos
+     << " position iterations, warm starting and continuous collision on (its defaults).\n";
+  const WorldSettings d;
+  md << "- Fulcrum " << soft_label(d) << " (the default): double, " << d.substeps << " substeps of "
+     << d.velocity_iterations << " velocity + " << d.relax_iterations
+     << " relax iterations, soft contacts at " << num(d.contact_hertz) << " Hz, joints at "
+     << num(d.joint_hertz) << " Hz.\n";
+  md << "- Fulcrum classic 8 (as `fulcrum_sweep`'s): 1 substep, 8 velocity iterations, no relax "
+        "pass, rigid Baumgarte contacts with "
+     << num(d.linear_slop)
+     << " m slop (contact_hertz 0), split impulses off; joints as in the default.\n";
+  md << "- Both engines: the same scene (bodies, outlines, masses and inertias, friction 0.6 "
+        "mixed as sqrt(a b), restitution mixed as max, restitution threshold 1 m/s, filters), "
+        "gravity (0, -10), dt 1/60 s, sleeping as the scene says.\n";
+  md << "- ms/step: mean over steps 1..N-1 of a run, median of "
+     << (o.repeats > 0 ? std::to_string(o.repeats) + " run(s)"
+                       : std::string("3 runs (1 for cases 2, 3 and 9, the largest)"))
+     << "; the three engines step in turns of " << o.chunk
+     << " ticks so that they share the machine's load; only the step call is timed. ratio = "
+        "Fulcrum ms / Box2D ms (below 1: Fulcrum is faster).\n";
+  md << "- Errors: from the first run, computed by the same code from each engine's body "
+        "states (joint separation from both bodies' world anchor points, every tick; limits "
+        "from the bodies' angles); penetration from each engine's own contact manifolds, every "
+        "tick after the first second. pass = the HARD_CASES criterion, judged as "
+        "`fulcrum_sweep` judges it.\n";
+
+  md << "\n## Speed\n\n| # | case | dynamic bodies | joints | ticks | runs | Box2D ms/step | "
+        "Fulcrum default ms/step | ratio | Fulcrum classic 8 ms/step | ratio |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const CaseRun& r : runs) {
+    md << "| " << case_title(*r.c) << " | " << r.c->name << " | " << r.dynamic_bodies << " | "
+       << r.joints << " | " << r.ticks << " | " << r.repeats << " | "
+       << num(r.col[kBox2D].ms_per_step) << " | " << num(r.col[kFulcrumSoft].ms_per_step) << " | "
+       << num(r.ratio(kFulcrumSoft)) << " | " << num(r.col[kFulcrumClassic].ms_per_step) << " | "
+       << num(r.ratio(kFulcrumClassic)) << " |\n";
+  }
+
+  md << "\n## Error\n\n| # | case | measure | Box2D | Fulcrum default | Fulcrum classic 8 |\n"
+        "|---|---|---|---|---|---|\n";
+  for (const CaseRun& r : runs) {
+    for (const auto& [k, label] : r.c->labels) {
+      md << "| " << case_title(*r.c) << " | " << r.c->name << " | " << label;
+      for (int e = 0; e < kEngineCount; ++e) md << " | " << cell(r.col[e].m, k);
+      md << " |\n";
+    }
+    if (!r.c->criterion.empty()) {
+      md << "| " << case_title(*r.c) << " | " << r.c->name << " | **pass:** " << r.c->criterion;
+      for (int e = 0; e < kEngineCount; ++e) md << " | " << verdict(r.col[e].m);
+      md << " |\n";
+    }
+  }
+  bool any_failed = false;
+  for (const CaseRun& r : runs) {
+    for (const Column& col : r.col) any_failed = any_failed || !col.m.failed.empty();
+  }
+  if (any_failed) {
+    md << "\nWhat failed:\n\n";
+    for (const CaseRun& r : runs) {
+      for (const Column& col : r.col) {
+        if (col.m.failed.empty()) continue;
+        md << "- " << case_name(*r.c) << ", " << col.label << ": " << failures(col.m) << "\n";
+      }
+    }
+  }
+  for (const CaseRun& r : runs) {
+    if (r.c->id == 2) case2_target(md, r);
+  }
+
+  md << "\n## How the Box2D twin differs\n\n"
+        "- Polygons: 2.4.1 grows every polygon by a 0.01 m skin (b2_polygonRadius). "
+     << (o.twin.compensate_skin
+             ? "The twin insets each polygon's core by the skin so that the outlines are "
+               "Fulcrum's (the corners are rounded by 0.01 m); 2.4.1's world-manifold "
+               "separation includes the skin, so both penetration columns measure overlap of "
+               "the same outlines.\n"
+             : "Not compensated in this run (--b2-keep-skin): boxes that touch exactly start "
+               "0.02 m overlapped in Box2D, and its penetration is skin overlap.\n")
+     << "- Capsules: 2.4.1 has none; each is a box over the core segment (sides pulled in by "
+        "the skin) plus a circle at each end, on the same body, and the body's mass, centre "
+        "and inertia are set to Fulcrum's (b2Body::SetMassData). Every dynamic body gets "
+        "Fulcrum's mass properties that way.\n"
+        "- Particles (Fulcrum's translation-only bodies): dynamic bodies with fixedRotation and "
+        "the same circle.\n"
+        "- Joints: the same anchors, reference angles, limits, motors (joint friction is a "
+        "motor with target speed 0 and a torque cap in both), distance ranges (rods min = max, "
+        "ropes min = 0) and collideConnected. Box2D's joints are rigid (solved to its "
+        "position iterations); Fulcrum's are soft at joint_hertz 60.\n"
+        "- Friction and restitution need no adjustment: 2.4.1 mixes them as Fulcrum does "
+        "(sqrt(a b), max(a, b)); Fulcrum's world restitution threshold is set on every "
+        "fixture.\n"
+        "- Filters: 2.4.1 keeps 16 bits of category and mask; every case fits.\n";
+  bool any_notes = false;
+  for (const CaseRun& r : runs) {
+    if (r.twin_notes.empty()) continue;
+    if (!any_notes) md << "\nPer case:\n\n";
+    any_notes = true;
+    md << "- " << case_name(*r.c) << ": ";
+    for (size_t i = 0; i < r.twin_notes.size(); ++i) md << (i ? "; " : "") << r.twin_notes[i];
+    md << "\n";
+  }
+  return md.str();
+}
+
+const char* const kCsvHeader =
+    "case_id,case,engine,setting,ticks,repeats,ms_per_step,ratio_to_box2d,max_penetration_m,"
+    "max_joint_error_m,max_limit_error_rad,max_stretch,displacement_m,bodies_out,energy_gain,"
+    "pass,failed";
+
+std::string csv(const std::vector<CaseRun>& runs) {
+  std::string out = std::string(kCsvHeader) + "\n";
+  for (const CaseRun& r : runs) {
+    for (int e = 0; e < kEngineCount; ++e) {
+      const Column& col = r.col[e];
+      out += std::to_string(r.c->id) + "," + r.c->name + "," + kEngineKeys[e] + "," + col.label +
+             "," + std::to_string(r.ticks) + "," + std::to_string(r.repeats) + "," +
+             num(col.ms_per_step, 4) + "," + num(r.ratio(static_cast<EngineKind>(e)), 4);
+      for (int k = 0; k < kMeasureCount; ++k) {
+        out += ",";
+        if (col.m.value[k]) out += num(*col.m.value[k], 4);
+      }
+      std::string failed = col.m.judged ? failures(col.m) : "";
+      std::replace(failed.begin(), failed.end(), ',', ' ');
+      std::replace(failed.begin(), failed.end(), ';', '/');
+      out += std::string(",") + (col.m.judged ? (col.m.pass() ? "1" : "0") : "") + "," +
+             (failed == "-" ? "" : failed) + "\n";
+    }
   }
   return out;
 }
 
-void add_edge(b2Body* body, const fulcrum::Vec2& p1, const fulcrum::Vec2& p2, double friction,
-              double restitution, float threshold, const b2Filter& filter, bool sensor) {
-  // Fulcrum segments (and chain links) are two-sided; 2.4.1's chain shapes are one-sided, so
-  // every link becomes its own two-sided edge.
-  b2EdgeShape edge;
-  edge.SetTwoSided(to_b2(p1), to_b2(p2));
-  b2FixtureDef fd;
-  fd.shape = &edge;
-  fd.density = 0.0f;
-  fd.friction = static_cast<float>(friction);
-  fd.restitution = static_cast<float>(restitution);
-  fd.restitutionThreshold = threshold;
-  fd.filter = filter;
-  fd.isSensor = sensor;
-  body->CreateFixture(&fd);
+// Everything from this line on in an existing --markdown file is kept when it is rewritten.
+const char* const kKeepMarker =
+    "<!-- Written by hand from here on: fulcrum_box2d_compare keeps what follows. -->";
+
+void write_markdown(const std::string& path, const std::string& generated) {
+  std::string kept;
+  {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    std::string old = ss.str();
+    size_t at = old.find(kKeepMarker);
+    if (at != std::string::npos) kept = old.substr(at);
+  }
+  std::ofstream out(path, std::ios::binary);
+  out << generated << "\n" << (kept.empty() ? std::string(kKeepMarker) + "\n" : kept);
+  if (!out) die("cannot write " + path);
 }
 
-void add_shape(b2Body* body, const fulcrum::ShapeDef& sd, float threshold, ConversionNotes* notes) {
-  b2Filter filter = to_b2(sd.filter, notes);
-  b2FixtureDef fd;
-  fd.density = static_cast<float>(sd.density);
-  fd.friction = static_cast<float>(sd.friction);
-  fd.restitution = static_cast<float>(sd.restitution);
-  // Fulcrum's world-wide restitution threshold is per fixture in 2.4.1 (mixed as the max).
-  fd.restitutionThreshold = threshold;
-  fd.filter = filter;
-  fd.isSensor = sd.is_sensor;
-
-  if (const auto* poly = std::get_if<fulcrum::Polygon>(&sd.geometry)) {
-    b2Vec2 pts[b2_maxPolygonVertices];
-    int n = std::min(poly->count, static_cast<int>(b2_maxPolygonVertices));
-    for (int i = 0; i < n; ++i) pts[i] = to_b2(poly->vertices[i]);
-    b2PolygonShape shape;
-    shape.Set(pts, n);
-    if (poly->radius > 0.0) ++notes->rounded_polygons;
-    fd.shape = &shape;
-    body->CreateFixture(&fd);
-  } else if (const auto* circle = std::get_if<fulcrum::Circle>(&sd.geometry)) {
-    b2CircleShape shape;
-    shape.m_p = to_b2(circle->center);
-    shape.m_radius = static_cast<float>(circle->radius);
-    fd.shape = &shape;
-    body->CreateFixture(&fd);
-  } else if (const auto* seg = std::get_if<fulcrum::Segment>(&sd.geometry)) {
-    add_edge(body, seg->point1, seg->point2, sd.friction, sd.restitution, threshold, filter,
-             sd.is_sensor);
-  } else {
-    // Box2D 2.4.1 has no capsule; none of the default table's scenes use one.
-    ++notes->skipped_capsules;
-  }
+void write_file(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+  if (!out) die("cannot write " + path);
 }
 
-// Builds the Box2D twin of `scene`. Bodies are created in scene order, so the i-th body of the
-// returned list is scene.bodies[i].
-std::unique_ptr<b2World> convert(const fulcrum::SceneDef& scene, std::vector<b2Body*>* bodies,
-                                 ConversionNotes* notes) {
-  auto world = std::make_unique<b2World>(to_b2(scene.settings.gravity));
-  world->SetAllowSleeping(scene.settings.enable_sleep);
-  const float threshold = static_cast<float>(scene.settings.restitution_threshold);
-  for (const fulcrum::SceneBody& sb : scene.bodies) {
-    const fulcrum::BodyDef& d = sb.def;
-    b2BodyDef bd;
-    bd.type = to_b2(d.type);
-    bd.position = to_b2(d.position);
-    bd.angle = static_cast<float>(d.angle);
-    // Both engines take the velocity of the body origin here: 2.4.1's ResetMassData shifts the
-    // stored centre velocity by w x (c - origin) once the fixtures move the centre of mass.
-    // The tumbler's kinematic frame gets its spin this way (same as SetAngularVelocity).
-    bd.linearVelocity = to_b2(d.linear_velocity);
-    bd.angularVelocity = static_cast<float>(d.angular_velocity);
-    bd.linearDamping = static_cast<float>(d.linear_damping);
-    bd.angularDamping = static_cast<float>(d.angular_damping);
-    bd.gravityScale = static_cast<float>(d.gravity_scale);
-    bd.fixedRotation = d.fixed_rotation || d.type == fulcrum::BodyType::kParticle;
-    bd.awake = d.awake;
-    bd.allowSleep = d.enable_sleep;
-    b2Body* body = world->CreateBody(&bd);
-    for (const fulcrum::ShapeDef& sd : sb.shapes) add_shape(body, sd, threshold, notes);
-    for (const fulcrum::ChainDef& chain : sb.chains) {
-      b2Filter filter = to_b2(chain.filter, notes);
-      size_t n = chain.points.size();
-      size_t links = chain.loop ? n : n - 1;
-      for (size_t i = 0; i < links; ++i) {
-        add_edge(body, chain.points[i], chain.points[(i + 1) % n], chain.friction,
-                 chain.restitution, threshold, filter, false);
-      }
-    }
-    bodies->push_back(body);
+std::vector<std::string> split(const std::string& list) {
+  std::vector<std::string> out;
+  std::stringstream ss(list);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    if (!item.empty()) out.push_back(item);
   }
-  // Joints: the same anchors, limits and motors (Box2D 2.4.1 has no revolute spring, and its
-  // distance joint's min/max are its own; both are noted when they would differ).
-  for (const fulcrum::SceneJoint& sj : scene.joints) {
-    b2Body* a = (*bodies)[sj.body_a];
-    b2Body* b = (*bodies)[sj.body_b];
-    if (const auto* r = std::get_if<fulcrum::RevoluteJointDef>(&sj.def)) {
-      b2RevoluteJointDef jd;
-      jd.bodyA = a;
-      jd.bodyB = b;
-      jd.localAnchorA = to_b2(r->local_anchor_a);
-      jd.localAnchorB = to_b2(r->local_anchor_b);
-      jd.referenceAngle = static_cast<float>(r->reference_angle);
-      jd.enableLimit = r->enable_limit;
-      jd.lowerAngle = static_cast<float>(r->lower_angle);
-      jd.upperAngle = static_cast<float>(r->upper_angle);
-      jd.enableMotor = r->enable_motor;
-      jd.motorSpeed = static_cast<float>(r->motor_speed);
-      jd.maxMotorTorque = static_cast<float>(r->max_motor_torque);
-      jd.collideConnected = r->collide_connected;
-      world->CreateJoint(&jd);
-    } else if (const auto* d = std::get_if<fulcrum::DistanceJointDef>(&sj.def)) {
-      b2DistanceJointDef jd;
-      jd.bodyA = a;
-      jd.bodyB = b;
-      jd.localAnchorA = to_b2(d->local_anchor_a);
-      jd.localAnchorB = to_b2(d->local_anchor_b);
-      jd.length = static_cast<float>(d->length);
-      jd.minLength = static_cast<float>(d->min_length);
-      jd.maxLength = static_cast<float>(d->max_length);
-      jd.collideConnected = d->collide_connected;
-      world->CreateJoint(&jd);
-    } else {
-      ++notes->skipped_joints;
-    }
-  }
-  return world;
+  return out;
 }
 
-// Largest overlap over the touching contacts' points. 2.4.1's world-manifold separation is
-// measured between the skinned surfaces (each polygon grows by b2_polygonRadius = 0.01 m), so
-// this is skin overlap, not overlap of the polygons as given.
-double box2d_max_penetration(b2World& world) {
-  double worst = 0.0;
-  for (b2Contact* c = world.GetContactList(); c != nullptr; c = c->GetNext()) {
-    if (!c->IsTouching() || !c->IsEnabled()) continue;
-    if (c->GetFixtureA()->IsSensor() || c->GetFixtureB()->IsSensor()) continue;
-    b2WorldManifold wm;
-    c->GetWorldManifold(&wm);
-    int points = c->GetManifold()->pointCount;
-    for (int i = 0; i < points; ++i)
-      worst = std::max(worst, -static_cast<double>(wm.separations[i]));
+int positive(const std::string& flag, const std::string& text, int min) {
+  char* end = nullptr;
+  long v = std::strtol(text.c_str(), &end, 10);
+  if (end == text.c_str() || *end != '\0' || v < min || v > 1000000) {
+    die(flag + ": expected an integer >= " + std::to_string(min) + ", got '" + text + "'");
   }
-  return worst;
-}
-
-Figures run_box2d(const fulcrum::SceneDef& scene, int steps, int vel_iters, int pos_iters,
-                  ConversionNotes* notes) {
-  std::vector<b2Body*> bodies;
-  std::unique_ptr<b2World> world = convert(scene, &bodies, notes);
-  std::vector<b2Vec2> start;
-  for (b2Body* b : bodies) start.push_back(b->GetWorldCenter());
-  const float dt = static_cast<float>(scene.settings.dt);
-
-  world->Step(dt, vel_iters, pos_iters);
-  auto t0 = Clock::now();
-  for (int i = 1; i < steps; ++i) world->Step(dt, vel_iters, pos_iters);
-  auto t1 = Clock::now();
-
-  Figures f;
-  f.ms_per_step = std::chrono::duration<double, std::milli>(t1 - t0).count() / (steps - 1);
-  f.max_penetration = box2d_max_penetration(*world);
-  for (size_t k = 0; k < bodies.size(); ++k) {
-    if (bodies[k]->GetType() != b2_dynamicBody) continue;
-    ++f.dynamic_bodies;
-    b2Vec2 d = bodies[k]->GetWorldCenter() - start[k];
-    count_move(d.x, d.y, &f);
-  }
-  return f;
-}
-
-// --- Table -----------------------------------------------------------------------------------
-
-struct Row {
-  Entry entry;
-  Figures fulcrum;
-  Figures box2d;
-  ConversionNotes notes;
-};
-
-Row run(const Entry& e, int repeats, int vel_iters, int pos_iters) {
-  Row row;
-  row.entry = e;
-  const fulcrum::SceneDef scene = fulcrum::scenes::builtin(e.scene).value();
-  std::vector<double> ft, bt;
-  // Alternate the engines within each repeat so both see the same machine load.
-  for (int r = 0; r < repeats; ++r) {
-    row.fulcrum = run_fulcrum(scene, e.steps);
-    ft.push_back(row.fulcrum.ms_per_step);
-    row.notes = ConversionNotes{};
-    row.box2d = run_box2d(scene, e.steps, vel_iters, pos_iters, &row.notes);
-    bt.push_back(row.box2d.ms_per_step);
-  }
-  // Both engines are deterministic in-process, so the last repeat's accuracy figures stand for
-  // all of them; only the timings vary.
-  row.fulcrum.ms_per_step = median(ft);
-  row.box2d.ms_per_step = median(bt);
-  return row;
-}
-
-std::string fulcrum_settings(const fulcrum::WorldSettings& s) {
-  char buf[256];
-  std::snprintf(buf, sizeof buf,
-                "substeps %d, velocity_iterations %d, relax_iterations %d, contact_hertz %g",
-                s.substeps, s.velocity_iterations, s.relax_iterations, s.contact_hertz);
-  return buf;
+  return static_cast<int>(v);
 }
 
 void usage() {
   std::fprintf(stderr,
-               "usage: fulcrum_box2d_compare [--scene NAME]... [--steps N] [--repeats R] "
-               "[--b2-vel N] [--b2-pos N]\n");
+               "usage: fulcrum_box2d_compare [--cases NAME|NUMBER,...] [--repeats R] [--ticks N] "
+               "[--chunk K] [--b2-vel N] [--b2-pos N] [--b2-keep-skin] [--markdown FILE] "
+               "[--csv FILE]\n"
+               "  --cases: HARD_CASES numbers or names (default 1,2,3,4,5,9,10,11,12,13), or "
+               "any builtin scene\n");
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::vector<Entry> table = {{"large_pyramid", 500},
-                                    {"many_pyramids", 500},
-                                    {"vertical_stack", 600},
-                                    {"mass_ratio_100", 600},
-                                    {"tumbler", 750}};
-  std::vector<Entry> chosen;
-  int repeats = 3, steps = 0, vel_iters = 8, pos_iters = 3;
+  Options o;
+  std::vector<std::string> wanted;
+  std::string markdown_path, csv_path;
+  Header h;
+  h.command = "fulcrum_box2d_compare";
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
-    auto value = [&]() -> const char* {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "fulcrum_box2d_compare: %s needs a value\n", a.c_str());
-        std::exit(2);
-      }
+    h.command += " " + a;
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) die(a + " needs a value");
+      h.command += " " + std::string(argv[i + 1]);
       return argv[++i];
     };
-    if (a == "--scene") {
-      chosen.push_back({value(), 0});
-    } else if (a == "--steps") {
-      steps = std::atoi(value());
+    if (a == "--cases" || a == "--scene") {
+      for (const std::string& w : split(value())) wanted.push_back(w);
     } else if (a == "--repeats") {
-      repeats = std::max(1, std::atoi(value()));
+      o.repeats = positive(a, value(), 1);
+    } else if (a == "--ticks" || a == "--steps") {
+      o.ticks = positive(a, value(), 2);
+    } else if (a == "--chunk") {
+      o.chunk = positive(a, value(), 1);
     } else if (a == "--b2-vel") {
-      vel_iters = std::max(1, std::atoi(value()));
+      o.b2_vel = positive(a, value(), 1);
     } else if (a == "--b2-pos") {
-      pos_iters = std::max(0, std::atoi(value()));
+      o.b2_pos = positive(a, value(), 0);
+    } else if (a == "--b2-keep-skin") {
+      o.twin.compensate_skin = false;
+    } else if (a == "--markdown") {
+      markdown_path = value();
+    } else if (a == "--csv") {
+      csv_path = value();
     } else {
       usage();
       return 2;
     }
   }
-  if (chosen.empty()) chosen = table;
-  for (Entry& e : chosen) {
-    if (steps > 0) e.steps = steps;
-    if (e.steps == 0) {
-      auto it = std::find_if(table.begin(), table.end(),
-                             [&](const Entry& t) { return t.scene == e.scene; });
-      e.steps = it != table.end() ? it->steps : 500;
-    }
-    // Step 0 is excluded from the timing, so at least two steps are needed.
-    e.steps = std::max(e.steps, 2);
-    auto scene = fulcrum::scenes::builtin(e.scene);
-    if (!scene.ok()) {
-      std::fprintf(stderr, "fulcrum_box2d_compare: %s\n", scene.status().message().c_str());
-      return 2;
-    }
-  }
 
-  // Header: date, machine, and the settings each engine runs with.
-  char date[32];
+  const std::vector<Case> table = all_cases();
+  std::vector<Case> cases;
+  for (const std::string& w : wanted) {
+    auto it = std::find_if(table.begin(), table.end(),
+                           [&](const Case& c) { return c.name == w || std::to_string(c.id) == w; });
+    cases.push_back(it != table.end() ? *it : generic_case(w));
+  }
+  if (cases.empty()) cases = table;
+
   std::time_t now = std::time(nullptr);
+  char date[32];
   std::strftime(date, sizeof date, "%Y-%m-%d %H:%M", std::localtime(&now));
+  h.date = date;
   utsname un{};
-  const char* machine = uname(&un) == 0 ? un.machine : "unknown";
-  // The 2.4.1 release still sets b2_version to 2.4.0, so print what the library says.
-  std::printf(
-      "Fulcrum vs Box2D 2.4.1 (b2_version %d.%d.%d), %s, %s, median of %d repeat(s), "
-      "dt 1/60 s\n\n",
-      b2_version.major, b2_version.minor, b2_version.revision, date, machine, repeats);
-  // Settings usually agree across the table: print them once unless a scene differs.
-  std::vector<std::string> settings;
-  for (const Entry& e : chosen) {
-    settings.push_back(fulcrum_settings(fulcrum::scenes::builtin(e.scene)->settings));
-  }
-  if (std::all_of(settings.begin(), settings.end(),
-                  [&](const std::string& s) { return s == settings[0]; })) {
-    std::printf("- Fulcrum: %s\n", settings[0].c_str());
-  } else {
-    for (size_t i = 0; i < chosen.size(); ++i) {
-      std::printf("- Fulcrum (%s): %s\n", chosen[i].scene.c_str(), settings[i].c_str());
-    }
-  }
-  std::printf(
-      "- Box2D: velocity_iterations %d, position_iterations %d, float, warm starting and "
-      "continuous collision on (defaults)\n",
-      vel_iters, pos_iters);
-  // Sleep differs by scene (the pyramids turn it off); both engines follow the scene.
-  std::string sleep;
-  for (const Entry& e : chosen) {
-    bool on = fulcrum::scenes::builtin(e.scene)->settings.enable_sleep;
-    sleep += (sleep.empty() ? "" : ", ") + e.scene + (on ? " on" : " off");
-  }
-  std::printf("- sleep (both engines, from the scene): %s\n", sleep.c_str());
-  std::printf(
-      "- Box2D skins every polygon with b2_polygonRadius = %.3g m, so boxes that touch exactly "
-      "in the scene start overlapped by %.3g m in Box2D (not compensated); Box2D's "
-      "penetration is skin overlap (its world-manifold separation includes the skin)\n",
-      static_cast<double>(b2_polygonRadius), 2.0 * static_cast<double>(b2_polygonRadius));
-  std::printf(
-      "- ms/step over steps 1..N-1; penetration and moved (> 0.5 m, dynamic bodies' centres) "
-      "after the last step; ratio = Fulcrum ms / Box2D ms\n\n");
+  h.machine = uname(&un) == 0 ? std::string(un.sysname) + " " + un.machine : "unknown";
+  h.load_before = load_average();
 
-  std::printf(
-      "| scene | dynamic bodies | steps | Fulcrum ms/step | Box2D ms/step | ratio F/B2 | "
-      "Fulcrum max pen (m) | Box2D max pen (m) | Fulcrum moved | Box2D moved |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
-  std::vector<std::string> notes;
-  for (const Entry& e : chosen) {
-    Row r = run(e, repeats, vel_iters, pos_iters);
-    std::string bodies = std::to_string(r.fulcrum.dynamic_bodies);
-    if (r.box2d.dynamic_bodies != r.fulcrum.dynamic_bodies) {
-      bodies += " / " + std::to_string(r.box2d.dynamic_bodies);
-    }
-    double ratio = r.box2d.ms_per_step > 0.0 ? r.fulcrum.ms_per_step / r.box2d.ms_per_step : 0.0;
-    std::printf("| %s | %s | %d | %.3f | %.3f | %.2f | %.4f | %.4f | %d | %d |\n", e.scene.c_str(),
-                bodies.c_str(), e.steps, r.fulcrum.ms_per_step, r.box2d.ms_per_step, ratio,
-                r.fulcrum.max_penetration, r.box2d.max_penetration, r.fulcrum.moved, r.box2d.moved);
-    std::fflush(stdout);
-    const ConversionNotes& n = r.notes;
-    if (n.skipped_capsules + n.rounded_polygons + n.wide_filters + n.skipped_joints > 0) {
-      char buf[320];
-      std::snprintf(buf, sizeof buf,
-                    "- %s: Box2D twin skipped %d capsule(s), dropped the radius of %d rounded "
-                    "polygon(s), truncated %d filter(s) to 16 bits, skipped %d joint(s)",
-                    e.scene.c_str(), n.skipped_capsules, n.rounded_polygons, n.wide_filters,
-                    n.skipped_joints);
-      notes.push_back(buf);
-    }
-    for (const auto& [engine, f] : {std::pair{"Fulcrum", r.fulcrum}, std::pair{"Box2D", r.box2d}}) {
-      if (f.moved > 0) notes.push_back("- " + e.scene + ", " + describe_moves(engine, f));
-    }
+  auto start = std::chrono::steady_clock::now();
+  std::vector<CaseRun> runs;
+  for (const Case& c : cases) {
+    runs.push_back(run_case(c, o));
+    const CaseRun& r = runs.back();
+    double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    std::fprintf(stderr,
+                 "[%6.1f s] %2d %-15s Box2D %8.3f  default %8.3f (x%.2f)  classic 8 %8.3f "
+                 "(x%.2f) ms/step  pass %s/%s/%s\n",
+                 elapsed, c.id, c.name.c_str(), r.col[kBox2D].ms_per_step,
+                 r.col[kFulcrumSoft].ms_per_step, r.ratio(kFulcrumSoft),
+                 r.col[kFulcrumClassic].ms_per_step, r.ratio(kFulcrumClassic),
+                 verdict(r.col[kBox2D].m).c_str(), verdict(r.col[kFulcrumSoft].m).c_str(),
+                 verdict(r.col[kFulcrumClassic].m).c_str());
   }
-  if (!notes.empty()) {
-    std::printf("\n");
-    for (const std::string& l : notes) std::printf("%s\n", l.c_str());
-  }
+  h.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  h.load_after = load_average();
+
+  const std::string md = markdown(runs, o, h);
+  std::fputs(md.c_str(), stdout);
+  if (!markdown_path.empty()) write_markdown(markdown_path, md);
+  if (!csv_path.empty()) write_file(csv_path, csv(runs));
   return 0;
 }
