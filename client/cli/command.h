@@ -80,5 +80,6 @@ int run_step(const Invocation& inv);
 int run_edit(const Invocation& inv);
 int run_snapshot(const Invocation& inv);
 int run_watch(const Invocation& inv);
+int run_stats(const Invocation& inv);
 
 }  // namespace fulcrum::cli

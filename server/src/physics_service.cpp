@@ -7,6 +7,7 @@
 
 #include "fulcrum/scene.h"
 #include "scene_convert.h"
+#include "stats.h"
 
 namespace fulcrum::server {
 
@@ -46,9 +47,16 @@ bool same_secret(std::string_view a, std::string_view b) {
 }
 
 // A stream that ends at once with an error (bad request, unknown world).
-class RefusedStream final : public grpc::ServerWriteReactor<v1::Frame> {
+class RefusedStream final : public grpc::ServerWriteReactor<grpc::ByteBuffer> {
  public:
-  explicit RefusedStream(grpc::Status status) { Finish(std::move(status)); }
+  explicit RefusedStream(grpc::Status status) {
+    counters().add_refused(status.error_code());
+    log_event("refused", {{"rpc", "StreamFrames"},
+                          {"code", status_code_name(status.error_code())},
+                          {"field", field_of(status.error_message())},
+                          {"message", status.error_message()}});
+    Finish(std::move(status));
+  }
   void OnDone() override { delete this; }
 };
 
@@ -56,17 +64,30 @@ class RefusedStream final : public grpc::ServerWriteReactor<v1::Frame> {
 // pending_ (a mailbox of one: a newer frame replaces it and counts as skipped), so a reader
 // that falls behind costs the world nothing and holds at most two frames (one in flight). The
 // object keeps itself alive (self_) until gRPC calls OnDone; the Session holds a weak_ptr.
-class FrameStream final : public grpc::ServerWriteReactor<v1::Frame>, public FrameSink {
+// A write in flight for longer than the stall limit when a newer frame arrives ends the stream
+// with RESOURCE_EXHAUSTED (its client stopped reading). Messages are a reader part (skipped
+// counts) followed by the frame's shared encoding (encode_shared), two slices, no copy.
+class FrameStream final : public grpc::ServerWriteReactor<grpc::ByteBuffer>, public FrameSink {
  public:
-  FrameStream(std::shared_ptr<Session> session, const v1::StreamFramesRequest& request)
+  FrameStream(std::shared_ptr<Session> session, const v1::StreamFramesRequest& request,
+              std::chrono::milliseconds max_stall)
       : session_(std::move(session)),
         every_(request.every_ticks() == 0 ? 1 : request.every_ticks()),
-        mode_(request.bodies()) {}
+        mode_(request.bodies()),
+        quantized_(request.quantized()),
+        max_stall_(max_stall) {}
 
   static FrameStream* start(std::shared_ptr<Session> session,
-                            const v1::StreamFramesRequest& request) {
-    auto stream = std::make_shared<FrameStream>(session, request);
+                            const v1::StreamFramesRequest& request,
+                            std::chrono::milliseconds max_stall) {
+    auto stream = std::make_shared<FrameStream>(session, request, max_stall);
     stream->self_ = stream;
+    ++counters().streams_opened;
+    ++counters().streams_open;
+    log_event("stream_opened", {{"world", session->id()},
+                                {"every_ticks", stream->every_},
+                                {"bodies", v1::FrameBodies_Name(stream->mode_)},
+                                {"quantized", stream->quantized_ ? "true" : "false"}});
     session->subscribe(stream);
     return stream.get();
   }
@@ -76,7 +97,19 @@ class FrameStream final : public grpc::ServerWriteReactor<v1::Frame>, public Fra
   void offer(std::shared_ptr<const PublishedFrame> frame) override {
     std::unique_lock<std::mutex> lock(mu_);
     if (closing_) return;
-    if (pending_) ++skipped_;
+    if (writing_ && std::chrono::steady_clock::now() - write_started_ > max_stall_) {
+      ++counters().readers_too_slow;
+      lock.unlock();
+      end(grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                       "frames: this reader took no frame for more than " +
+                           std::to_string(max_stall_.count()) +
+                           " ms (--max-reader-stall-ms) while the world moved on"));
+      return;
+    }
+    if (pending_) {
+      ++skipped_;
+      ++counters().frames_coalesced;
+    }
     pending_ = std::move(frame);
     if (writing_) return;  // OnWriteDone picks it up
     prepare_write_locked();
@@ -114,6 +147,11 @@ class FrameStream final : public grpc::ServerWriteReactor<v1::Frame>, public Fra
   }
 
   void OnDone() override {
+    --counters().streams_open;
+    log_event("stream_closed", {{"world", session_->id()},
+                                {"code", status_code_name(final_.error_code())},
+                                {"frames", frames_sent_},
+                                {"coalesced", coalesced_total_}});
     session_->unsubscribe(this);
     std::shared_ptr<FrameStream> last = std::move(self_);  // may destroy this on return
   }
@@ -131,23 +169,43 @@ class FrameStream final : public grpc::ServerWriteReactor<v1::Frame>, public Fra
   }
 
   void prepare_write_locked() {
-    frame_to_proto(*pending_, last_sent_.get(), mode_, skipped_, every_, &message_);
+    bool built = false;
+    std::shared_ptr<const std::string> shared =
+        encode_shared(*pending_, last_sent_.get(), mode_, quantized_, &built);
+    if (built) ++counters().frames_encoded;
+    // The slice holds a reference to the shared bytes until gRPC has sent them.
+    auto* keep = new std::shared_ptr<const std::string>(shared);
+    grpc::Slice slices[2] = {
+        grpc::Slice(encode_reader_part(skipped_, every_)),
+        grpc::Slice(
+            const_cast<char*>(shared->data()), shared->size(),
+            [](void* p) { delete static_cast<std::shared_ptr<const std::string>*>(p); }, keep)};
+    message_ = grpc::ByteBuffer(slices, 2);
+    coalesced_total_ += skipped_;
+    ++frames_sent_;
+    ++counters().frames_sent;
     last_sent_ = std::move(pending_);
     pending_.reset();
     skipped_ = 0;
     writing_ = true;
+    write_started_ = std::chrono::steady_clock::now();
   }
 
   const std::shared_ptr<Session> session_;
   const uint32_t every_;
   const v1::FrameBodies mode_;
+  const bool quantized_;
+  const std::chrono::milliseconds max_stall_;
   std::shared_ptr<FrameStream> self_;
 
   std::mutex mu_;
   std::shared_ptr<const PublishedFrame> pending_;    // newest frame not yet sent
   std::shared_ptr<const PublishedFrame> last_sent_;  // what the reader has (CHANGED diffs)
   uint64_t skipped_ = 0;
-  v1::Frame message_;  // the write in flight; untouched while writing_
+  grpc::ByteBuffer message_;  // the write in flight; untouched while writing_
+  std::chrono::steady_clock::time_point write_started_;
+  uint64_t frames_sent_ = 0;
+  uint64_t coalesced_total_ = 0;
   bool writing_ = false;
   bool closing_ = false;
   bool finished_ = false;
@@ -308,8 +366,15 @@ grpc::Status PhysicsService::Query(grpc::ServerContext* context, const v1::Query
   return to_grpc_status((*session)->query(*request, reply));
 }
 
-grpc::ServerWriteReactor<v1::Frame>* PhysicsService::StreamFrames(
-    grpc::CallbackServerContext* context, const v1::StreamFramesRequest* request) {
+grpc::ServerWriteReactor<grpc::ByteBuffer>* PhysicsService::StreamFrames(
+    grpc::CallbackServerContext* context, const grpc::ByteBuffer* raw_request) {
+  v1::StreamFramesRequest parsed;
+  grpc::ByteBuffer copy(*raw_request);  // Deserialize consumes its buffer
+  if (!grpc::SerializationTraits<v1::StreamFramesRequest>::Deserialize(&copy, &parsed).ok()) {
+    return new RefusedStream(
+        grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "request: not a StreamFramesRequest"));
+  }
+  const v1::StreamFramesRequest* request = &parsed;
   grpc::Status auth = check_token(*context);
   if (!auth.ok()) return new RefusedStream(auth);
   if (shutting_down_) {
@@ -322,7 +387,15 @@ grpc::ServerWriteReactor<v1::Frame>* PhysicsService::StreamFrames(
   }
   auto session = registry_->find(request->world_id());
   if (!session.ok()) return new RefusedStream(to_grpc_status(session.status()));
-  return FrameStream::start(*session, *request);
+  return FrameStream::start(*session, *request,
+                            std::chrono::milliseconds(registry_->limits().max_reader_stall_ms));
+}
+
+grpc::Status PhysicsService::GetStats(grpc::ServerContext* context,
+                                      const v1::GetStatsRequest* request, v1::ServerStats* reply) {
+  FULCRUM_CHECK_TOKEN(context);
+  counters().to_proto(static_cast<uint32_t>(registry_->list().size()), reply);
+  return grpc::Status::OK;
 }
 
 }  // namespace fulcrum::server

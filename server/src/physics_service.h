@@ -19,7 +19,7 @@ namespace fulcrum::server {
 grpc::Status to_grpc_status(const Status& status);
 
 class PhysicsService final
-    : public v1::Physics::WithCallbackMethod_StreamFrames<v1::Physics::Service> {
+    : public v1::Physics::WithRawCallbackMethod_StreamFrames<v1::Physics::Service> {
  public:
   // An empty token turns authentication off.
   PhysicsService(Registry* registry, std::string token);
@@ -43,8 +43,11 @@ class PhysicsService final
                                v1::RestoreSnapshotReply* reply) override;
   grpc::Status Query(grpc::ServerContext* context, const v1::QueryRequest* request,
                      v1::QueryReply* reply) override;
-  grpc::ServerWriteReactor<v1::Frame>* StreamFrames(
-      grpc::CallbackServerContext* context, const v1::StreamFramesRequest* request) override;
+  // Raw bytes out: frames are encoded once and shared by readers (frames.h).
+  grpc::ServerWriteReactor<grpc::ByteBuffer>* StreamFrames(
+      grpc::CallbackServerContext* context, const grpc::ByteBuffer* request) override;
+  grpc::Status GetStats(grpc::ServerContext* context, const v1::GetStatsRequest* request,
+                        v1::ServerStats* reply) override;
 
   // New streams are refused and open ones end with UNAVAILABLE.
   void begin_shutdown();

@@ -24,6 +24,10 @@ struct ServerOptions {
   int max_message_bytes = 64 << 20;  // largest request or reply, bytes
   std::string token;                 // bearer token; empty: no authentication
   bool reflection = true;            // register the server reflection service
+  // TLS: PEM text of the certificate chain and its private key. When set, the server serves
+  // TLS only; both or neither.
+  std::string tls_cert_pem;
+  std::string tls_key_pem;
 };
 
 class Server {

@@ -7,6 +7,7 @@
 #include "edit_convert.h"
 #include "scene_convert.h"
 #include "snapshot_convert.h"
+#include "stats.h"
 
 namespace fulcrum::server {
 
@@ -137,6 +138,7 @@ Status Session::step(uint32_t ticks, std::optional<int64_t> expected_tick, bool 
       publish_tick_locked();
     }
     const auto end = std::chrono::steady_clock::now();
+    counters().add_steps(ticks, end - start);
     reply->set_tick(world_.tick());
     reply->set_state_hash(world_.state_hash());
     refresh_summary_locked(reply->state_hash());
@@ -179,6 +181,8 @@ Status Session::restore(const WorldSnapshot& records, v1::RestoreSnapshotReply* 
     Hold hold(this);
     FULCRUM_RETURN_IF_ERROR(world_.restore(records).with_prefix("snapshot: "));
     ++epoch_;
+    ++counters().worlds_restored;
+    log_event("world_restored", {{"world", id_}, {"tick", world_.tick()}});
     reply->set_world_id(id_);
     reply->set_tick(world_.tick());
     reply->set_state_hash(world_.state_hash());
@@ -315,7 +319,7 @@ void Session::publish_tick_locked() {
   }
   if (due.empty()) return;
   // Captured once per tick, shared by every reader; offer() only swaps a pointer.
-  std::shared_ptr<const PublishedFrame> frame = capture_frame(world_, id_, epoch_);
+  std::shared_ptr<const PublishedFrame> frame = capture_frame(world_, id_, epoch_, ++frame_seq_);
   for (auto& s : due) s->offer(frame);
 }
 
@@ -331,7 +335,7 @@ void Session::publish_all_locked() {
     }
   }
   if (all.empty()) return;
-  std::shared_ptr<const PublishedFrame> frame = capture_frame(world_, id_, epoch_);
+  std::shared_ptr<const PublishedFrame> frame = capture_frame(world_, id_, epoch_, ++frame_seq_);
   for (auto& s : all) s->offer(frame);
 }
 
@@ -354,7 +358,7 @@ void Session::deliver_first_frames() {
     }
   }
   if (waiting.empty()) return;
-  std::shared_ptr<const PublishedFrame> frame = capture_frame(world_, id_, epoch_);
+  std::shared_ptr<const PublishedFrame> frame = capture_frame(world_, id_, epoch_, ++frame_seq_);
   for (auto& s : waiting) s->offer(frame);
 }
 
@@ -372,6 +376,10 @@ Result<std::shared_ptr<Session>> Registry::create(std::string name, World world)
                               " worlds; delete one first");
   }
   const uint64_t id = next_id_++;
+  const int bodies = world.body_count();
+  const int64_t tick = world.tick();
+  log_event("world_created", {{"world", id}, {"name", name}, {"bodies", bodies}, {"tick", tick}});
+  ++counters().worlds_created;
   auto session = std::make_shared<Session>(id, std::move(name), std::move(world), limits_);
   worlds_.emplace(id, session);
   return session;
@@ -395,6 +403,8 @@ Status Registry::remove(uint64_t id) {
     session = std::move(it->second);
     worlds_.erase(it);
   }
+  log_event("world_deleted", {{"world", id}});
+  ++counters().worlds_deleted;
   session->close_streams(not_found("world " + std::to_string(id) + " was deleted"), false);
   return {};
 }
