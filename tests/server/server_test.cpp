@@ -524,5 +524,220 @@ TEST_F(ServerTest, ShutdownEndsStreams) {
   EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(2));
 }
 
+// A self-signed certificate for localhost and 127.0.0.1, made with openssl (tools/setup.sh
+// installs it) in a fresh directory; returns the directory, or empty when openssl failed.
+std::string make_certificate(const std::string& name) {
+  const std::string dir = ::testing::TempDir() + "fulcrum_tls_" + name;
+  const std::string command =
+      "mkdir -p " + dir +
+      " && openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 "
+      "-nodes -days 2 -subj /CN=localhost -addext subjectAltName=DNS:localhost,IP:127.0.0.1 "
+      "-keyout " +
+      dir + "/key.pem -out " + dir + "/cert.pem >/dev/null 2>&1";
+  return std::system(command.c_str()) == 0 ? dir : std::string();
+}
+
+TEST_F(ServerTest, TlsServesOnlyClientsThatTrustItsCertificate) {
+  const std::string dir = make_certificate("server");
+  const std::string other = make_certificate("other");
+  ASSERT_FALSE(dir.empty()) << "openssl could not make a certificate";
+  ASSERT_FALSE(other.empty());
+  ServerOptions options;
+  options.tls_cert_pem = read_text(dir + "/cert.pem");
+  options.tls_key_pem = read_text(dir + "/key.pem");
+  start(options);
+
+  client::ClientOptions tls;
+  tls.address = server_->address();
+  tls.tls = true;
+  tls.tls_ca_pem = options.tls_cert_pem;
+  tls.deadline = std::chrono::milliseconds(10000);
+  auto trusted = client::Client::connect(tls);
+  Result<client::WorldSummary> w = trusted->create_world_json(pyramid_json());
+  ASSERT_TRUE(w.ok()) << w.status().message();
+  ASSERT_TRUE(trusted->step(w->id, 3).ok());
+
+  // The target name override: the certificate names localhost, the address is an IP.
+  client::ClientOptions named = tls;
+  named.tls_target_name = "localhost";
+  EXPECT_TRUE(client::Client::connect(named)->list_worlds().ok());
+
+  // A plaintext client and a client that trusts another certificate are both refused.
+  client::ClientOptions plain;
+  plain.address = server_->address();
+  plain.deadline = std::chrono::milliseconds(3000);
+  Result<std::vector<client::WorldSummary>> refused = client::Client::connect(plain)->list_worlds();
+  EXPECT_FALSE(refused.ok());
+  client::ClientOptions wrong_ca = tls;
+  wrong_ca.tls_ca_pem = read_text(other + "/cert.pem");
+  wrong_ca.deadline = std::chrono::milliseconds(3000);
+  Result<std::vector<client::WorldSummary>> untrusted =
+      client::Client::connect(wrong_ca)->list_worlds();
+  EXPECT_FALSE(untrusted.ok());
+  EXPECT_NE(untrusted.status().message().find("UNAVAILABLE"), std::string::npos)
+      << untrusted.status().message();
+
+  // A key without its certificate is refused before listening.
+  ServerOptions half;
+  half.listen = "127.0.0.1:0";
+  half.tls_key_pem = options.tls_key_pem;
+  auto bad = Server::start(half);
+  EXPECT_EQ(bad.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(bad.status().message().find("tls_cert"), std::string::npos);
+}
+
+// Lists services through reflection with the given token ("" for none): the status and the
+// reply bytes.
+std::pair<grpc::Status, std::string> list_services(const std::shared_ptr<grpc::Channel>& channel,
+                                                   const std::string& token) {
+  class Lister : public grpc::ClientBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer> {
+   public:
+    void start() {
+      StartWrite(&request_, grpc::WriteOptions().set_last_message());
+      StartRead(&response_);
+      StartCall();
+    }
+    void OnReadDone(bool ok) override {
+      if (!ok) return;
+      std::vector<grpc::Slice> slices;
+      if (response_.Dump(&slices).ok()) {
+        for (const auto& s : slices)
+          text_.append(reinterpret_cast<const char*>(s.begin()), s.size());
+      }
+      StartRead(&response_);
+    }
+    void OnDone(const grpc::Status& status) override { done_.set_value(status); }
+    grpc::Slice slice_{std::string("\x3a\x00", 2)};
+    grpc::ByteBuffer request_{&slice_, 1};
+    grpc::ByteBuffer response_;
+    std::string text_;
+    std::promise<grpc::Status> done_;
+  } lister;
+  grpc::GenericStub generic(channel);
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+  if (!token.empty()) context.AddMetadata("authorization", "Bearer " + token);
+  generic.PrepareBidiStreamingCall(&context,
+                                   "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo",
+                                   grpc::StubOptions(), &lister);
+  lister.start();
+  grpc::Status status = lister.done_.get_future().get();
+  return {status, lister.text_};
+}
+
+TEST_F(ServerTest, ReflectionNeedsTheTokenWhenOneIsSet) {
+  ServerOptions options;
+  options.token = "s3cret";
+  start(options);
+  for (const std::string token : {"", "guess"}) {
+    auto [status, text] = list_services(channel_, token);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAUTHENTICATED) << "token '" << token << "'";
+    EXPECT_EQ(text.find("fulcrum.v1.Physics"), std::string::npos) << "the service list leaked";
+  }
+  auto [status, text] = list_services(channel_, "s3cret");
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_NE(text.find("fulcrum.v1.Physics"), std::string::npos);
+}
+
+TEST_F(ServerTest, CountersFollowWhatTheServerDid) {
+  start();
+  Result<v1::ServerStats> before = client_->get_stats();
+  ASSERT_TRUE(before.ok()) << before.status().message();
+  auto refused = [](const v1::ServerStats& s, const std::string& code) {
+    for (const v1::CodeCount& c : s.refused()) {
+      if (c.code() == code) return c.count();
+    }
+    return uint64_t{0};
+  };
+  const uint64_t id = create_pyramid();
+  std::atomic<int> frames{0};
+  auto sub = client_->subscribe(id, {}, [&](const client::Frame&) { ++frames; });
+  ASSERT_TRUE(sub.ok());
+  ASSERT_TRUE(client_->step(id, 30).ok());
+  EXPECT_EQ(client_->step(id, 0).status().code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(client_->step(999, 1).status().code(), StatusCode::kNotFound);
+  Result<client::SnapshotResult> snap = client_->get_snapshot(id);
+  ASSERT_TRUE(snap.ok());
+  ASSERT_TRUE(client_->restore(id, snap->bytes).ok());
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (frames.load() == 0) {
+    ASSERT_LT(std::chrono::steady_clock::now(), deadline);
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  (*sub)->cancel();
+  (void)(*sub)->wait();
+  ASSERT_TRUE(client_->delete_world(id).ok());
+
+  Result<v1::ServerStats> after = client_->get_stats();
+  ASSERT_TRUE(after.ok());
+  EXPECT_EQ(after->worlds_created() - before->worlds_created(), 1u);
+  EXPECT_EQ(after->worlds_deleted() - before->worlds_deleted(), 1u);
+  EXPECT_EQ(after->worlds_restored() - before->worlds_restored(), 1u);
+  EXPECT_EQ(after->ticks_stepped() - before->ticks_stepped(), 30u);
+  EXPECT_GT(after->step_ms_total(), before->step_ms_total());
+  EXPECT_GT(after->step_ms_max(), 0.0);
+  EXPECT_EQ(after->streams_opened() - before->streams_opened(), 1u);
+  EXPECT_GE(after->frames_sent() - before->frames_sent(), static_cast<uint64_t>(frames.load()));
+  EXPECT_GE(after->frames_encoded(), 1u);
+  EXPECT_EQ(refused(*after, "INVALID_ARGUMENT") - refused(*before, "INVALID_ARGUMENT"), 1u);
+  EXPECT_EQ(refused(*after, "NOT_FOUND") - refused(*before, "NOT_FOUND"), 1u);
+  EXPECT_EQ(after->worlds(), 0u);
+}
+
+// Quantized frames over the wire rebuild the world within the stated bounds (frames.proto):
+// position 1/8192 m, angle pi/65536 rad, velocities 1/2048 m/s, plus nothing else.
+TEST_F(ServerTest, QuantizedFramesRebuildTheWorldWithinTheBounds) {
+  start();
+  const uint64_t id = create_pyramid();
+  std::mutex mu;
+  std::map<int32_t, client::BodyFrame> bodies;
+  int64_t last_tick = -1;
+  uint64_t last_hash = 0;
+  client::SubscribeOptions options;
+  options.bodies = client::FrameBodies::kChanged;
+  options.quantized = true;
+  auto sub = client_->subscribe(id, options, [&](const client::Frame& f) {
+    std::lock_guard<std::mutex> lock(mu);
+    if (f.full) bodies.clear();
+    for (const BodyId& gone : f.destroyed) bodies.erase(gone.index);
+    for (const client::BodyFrame& b : f.bodies) bodies[b.id.index] = b;
+    last_tick = f.tick;
+    last_hash = f.state_hash;
+  });
+  ASSERT_TRUE(sub.ok());
+  for (int i = 0; i < 12; ++i) ASSERT_TRUE(client_->step(id, 5).ok());
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (true) {
+    {
+      std::lock_guard<std::mutex> lock(mu);
+      if (last_tick == 60) break;
+    }
+    ASSERT_LT(std::chrono::steady_clock::now(), deadline);
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  (*sub)->cancel();
+  std::lock_guard<std::mutex> lock(mu);
+  EXPECT_EQ(last_hash, local_pyramid_hashes(60)[60]);  // the exact hash
+  Result<SceneDef> scene = parse_scene_json(pyramid_json());
+  Result<World> local = build_world(*scene);
+  for (int t = 0; t < 60; ++t) local->step();
+  ASSERT_EQ(bodies.size(), static_cast<size_t>(local->body_count()));
+  int quantized = 0;
+  for (BodyId id_local : local->bodies()) {
+    const BodyState s = *local->body_state(id_local);
+    const client::BodyFrame& b = bodies.at(id_local.index);
+    quantized += b.quantized ? 1 : 0;
+    EXPECT_LE(std::abs(b.position.x() - s.transform.p.x()), 1.0 / 8192);
+    EXPECT_LE(std::abs(b.position.y() - s.transform.p.y()), 1.0 / 8192);
+    EXPECT_LE(std::abs(std::remainder(b.angle - s.transform.q.angle(), 2 * M_PI)),
+              M_PI / 65536 + 1e-15);
+    EXPECT_LE(std::abs(b.linear_velocity.x() - s.linear_velocity.x()), 1.0 / 2048);
+    EXPECT_LE(std::abs(b.linear_velocity.y() - s.linear_velocity.y()), 1.0 / 2048);
+    EXPECT_LE(std::abs(b.angular_velocity - s.angular_velocity), 1.0 / 2048);
+    EXPECT_EQ(b.awake, s.awake);
+  }
+  EXPECT_EQ(quantized, local->body_count());  // the pyramid is well inside the ranges
+}
+
 }  // namespace
 }  // namespace fulcrum
