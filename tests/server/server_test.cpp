@@ -739,5 +739,154 @@ TEST_F(ServerTest, QuantizedFramesRebuildTheWorldWithinTheBounds) {
   EXPECT_EQ(quantized, local->body_count());  // the pyramid is well inside the ranges
 }
 
+// The malformed values RefusedRequestsLeaveTheWorldUnchanged does not cover, on every RPC:
+// infinities, negative densities, oversized batches, unknown world ids, a snapshot of another
+// version, a bad query. Each gets its code and a message naming the field; the hash stays.
+TEST_F(ServerTest, MalformedValuesOnEveryRpcAreRefusedByField) {
+  ServerOptions options;
+  options.limits.max_edits = 50;
+  start(options);
+  const uint64_t id = create_pyramid();
+  ASSERT_TRUE(client_->step(id, 5).ok());
+  const uint64_t hash = info(id).state_hash();
+  const double inf = std::numeric_limits<double>::infinity();
+  auto expect = [&](grpc::Status st, grpc::StatusCode code, const std::string& field) {
+    EXPECT_EQ(st.error_code(), code) << st.error_message();
+    EXPECT_NE(st.error_message().find(field), std::string::npos)
+        << "'" << st.error_message() << "' does not name " << field;
+    EXPECT_EQ(info(id).state_hash(), hash) << field;
+  };
+  auto body_edit = [](double density, double x) {
+    v1::Edit e;
+    v1::Body* b = e.mutable_create_body();
+    b->set_type(v1::BODY_TYPE_DYNAMIC);
+    b->mutable_position()->set_x(x);
+    v1::Shape* shape = b->add_shapes();
+    shape->mutable_circle()->set_radius(0.5);
+    shape->set_density(density);
+    return e;
+  };
+  {  // An infinite velocity, a negative density, an infinite position.
+    v1::EditBatch batch;
+    *batch.add_edits() = set_velocity(5, 1, -inf, 0.0);
+    expect(apply(id, batch), grpc::StatusCode::INVALID_ARGUMENT, "batch.edits[0].set_velocity");
+    v1::EditBatch negative;
+    *negative.add_edits() = body_edit(1.0, 0.0);
+    *negative.add_edits() = body_edit(-2.0, 0.0);
+    expect(apply(id, negative), grpc::StatusCode::INVALID_ARGUMENT, "density");
+    v1::EditBatch far;
+    *far.add_edits() = body_edit(1.0, inf);
+    expect(apply(id, far), grpc::StatusCode::INVALID_ARGUMENT, "batch.edits[0].create_body");
+  }
+  {  // More edits than --max-edits.
+    v1::EditBatch big;
+    for (int i = 0; i < 51; ++i) *big.add_edits() = set_velocity(5, 1, 1.0, 0.0);
+    expect(apply(id, big), grpc::StatusCode::RESOURCE_EXHAUSTED, "batch.edits");
+  }
+  {  // A scene with a negative density or a NaN gravity creates no world.
+    v1::CreateWorldRequest request;
+    v1::Body* b = request.mutable_scene()->add_bodies();
+    b->set_type(v1::BODY_TYPE_DYNAMIC);
+    v1::Shape* shape = b->add_shapes();
+    shape->mutable_circle()->set_radius(1.0);
+    shape->set_density(-1.0);
+    v1::CreateWorldReply reply;
+    auto c = context();
+    expect(stub_->CreateWorld(c.get(), request, &reply), grpc::StatusCode::INVALID_ARGUMENT,
+           "scene.bodies[0].shapes[0].density");
+    shape->set_density(1.0);
+    request.mutable_scene()->mutable_settings()->mutable_gravity()->set_y(
+        std::numeric_limits<double>::quiet_NaN());
+    auto c2 = context();
+    expect(stub_->CreateWorld(c2.get(), request, &reply), grpc::StatusCode::INVALID_ARGUMENT,
+           "scene.settings.gravity");
+    auto c3 = context();
+    expect(stub_->CreateWorld(c3.get(), v1::CreateWorldRequest(), &reply),
+           grpc::StatusCode::INVALID_ARGUMENT, "scene");
+    EXPECT_EQ(client_->list_worlds()->size(), 1u);
+  }
+  {  // Unknown world ids on every RPC that takes one.
+    const uint64_t unknown = 4242;
+    v1::WorldInfo world_info;
+    v1::GetWorldRequest get;
+    get.set_world_id(unknown);
+    auto c1 = context();
+    expect(stub_->GetWorld(c1.get(), get, &world_info), grpc::StatusCode::NOT_FOUND, "world_id");
+    v1::DeleteWorldRequest del;
+    del.set_world_id(unknown);
+    v1::DeleteWorldReply del_reply;
+    auto c2 = context();
+    expect(stub_->DeleteWorld(c2.get(), del, &del_reply), grpc::StatusCode::NOT_FOUND, "world_id");
+    v1::StepRequest step;
+    step.set_world_id(unknown);
+    step.set_ticks(1);
+    v1::StepReply step_reply;
+    auto c3 = context();
+    expect(stub_->Step(c3.get(), step, &step_reply), grpc::StatusCode::NOT_FOUND, "world_id");
+    v1::GetSnapshotRequest snap;
+    snap.set_world_id(unknown);
+    v1::GetSnapshotReply snap_reply;
+    auto c4 = context();
+    expect(stub_->GetSnapshot(c4.get(), snap, &snap_reply), grpc::StatusCode::NOT_FOUND,
+           "world_id");
+    v1::QueryRequest query;
+    query.set_world_id(unknown);
+    query.mutable_point()->mutable_point()->set_x(0);
+    v1::QueryReply query_reply;
+    auto c5 = context();
+    expect(stub_->Query(c5.get(), query, &query_reply), grpc::StatusCode::NOT_FOUND, "world_id");
+    auto sub = client_->subscribe(unknown, {}, [](const client::Frame&) {});
+    ASSERT_TRUE(sub.ok());
+    Status end = (*sub)->wait();
+    EXPECT_EQ(end.code(), StatusCode::kNotFound);
+    EXPECT_NE(end.message().find("world_id"), std::string::npos) << end.message();
+  }
+  {  // A snapshot of another format version, into the world and as a fork.
+    Result<client::SnapshotResult> snap = client_->get_snapshot(id);
+    ASSERT_TRUE(snap.ok());
+    v1::RestoreSnapshotRequest request;
+    ASSERT_TRUE(request.mutable_snapshot()->ParseFromString(snap->bytes));
+    request.mutable_snapshot()->set_version(request.snapshot().version() + 1);
+    v1::RestoreSnapshotReply reply;
+    for (uint64_t target : {id, uint64_t{0}}) {
+      request.set_world_id(target);
+      auto c = context();
+      expect(stub_->RestoreSnapshot(c.get(), request, &reply),
+             grpc::StatusCode::FAILED_PRECONDITION, "snapshot");
+    }
+    request.set_world_id(4242);
+    auto c = context();
+    expect(stub_->RestoreSnapshot(c.get(), request, &reply), grpc::StatusCode::NOT_FOUND,
+           "world_id");
+    EXPECT_EQ(client_->list_worlds()->size(), 1u);
+  }
+  {  // Queries: an infinite ray, an inverted box, no kind.
+    v1::QueryRequest query;
+    query.set_world_id(id);
+    query.mutable_ray_cast()->mutable_origin()->set_x(inf);
+    query.mutable_ray_cast()->mutable_translation()->set_y(-1);
+    v1::QueryReply reply;
+    auto c1 = context();
+    expect(stub_->Query(c1.get(), query, &reply), grpc::StatusCode::INVALID_ARGUMENT,
+           "ray_cast.origin");
+    query.mutable_aabb()->mutable_lower()->set_x(1);
+    auto c2 = context();
+    expect(stub_->Query(c2.get(), query, &reply), grpc::StatusCode::INVALID_ARGUMENT, "aabb.upper");
+    query.clear_aabb();
+    auto c3 = context();
+    expect(stub_->Query(c3.get(), query, &reply), grpc::StatusCode::INVALID_ARGUMENT, "kind");
+  }
+  {  // A stream with an unknown FrameBodies value.
+    v1::StreamFramesRequest request;
+    request.set_world_id(id);
+    request.set_bodies(static_cast<v1::FrameBodies>(7));
+    auto c = context();
+    auto reader = stub_->StreamFrames(c.get(), request);
+    v1::Frame frame;
+    EXPECT_FALSE(reader->Read(&frame));
+    expect(reader->Finish(), grpc::StatusCode::INVALID_ARGUMENT, "bodies");
+  }
+}
+
 }  // namespace
 }  // namespace fulcrum
