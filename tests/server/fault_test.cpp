@@ -345,9 +345,9 @@ TEST(FaultTest, AReaderThatStopsReadingIsEndedWithResourceExhausted) {
   EXPECT_EQ(server.terminate(), 0);
 }
 
-// A client process killed mid-stream and a cancelled stream end on the server; worlds and
-// threads return to where they were; SIGTERM with a stream open ends it with UNAVAILABLE and
-// the server exits 0.
+// A client process killed mid-stream and ten cancelled streams end on the server; worlds and
+// threads return to where they were (threads within gRPC's idle range); SIGTERM with a stream open
+// ends it with UNAVAILABLE and the server exits 0.
 TEST(FaultTest, KilledCancelledAndTerminatedStreamsEndCleanly) {
   ServerProcess server({});
   ASSERT_FALSE(server.address().empty()) << server.log();
@@ -375,14 +375,16 @@ TEST(FaultTest, KilledCancelledAndTerminatedStreamsEndCleanly) {
   EXPECT_TRUE(eventually([&] { return streams_open(c.get()) == 0; })) << "the dead reader's stream";
   ASSERT_TRUE(c->step(id, 5).ok());  // the world still steps
 
-  // A stream cancelled by its client.
-  std::atomic<int> frames{0};
-  auto sub = c->subscribe(id, {}, [&](const client::Frame&) { ++frames; });
-  ASSERT_TRUE(sub.ok());
-  ASSERT_TRUE(c->step(id, 5).ok());
-  ASSERT_TRUE(eventually([&] { return frames.load() > 0; }));
-  (*sub)->cancel();
-  EXPECT_TRUE((*sub)->wait().ok());
+  // Streams cancelled by their client, ten of them.
+  for (int i = 0; i < 10; ++i) {
+    std::atomic<int> frames{0};
+    auto sub = c->subscribe(id, {}, [&](const client::Frame&) { ++frames; });
+    ASSERT_TRUE(sub.ok());
+    ASSERT_TRUE(c->step(id, 1).ok());
+    ASSERT_TRUE(eventually([&] { return frames.load() > 0; }));
+    (*sub)->cancel();
+    EXPECT_TRUE((*sub)->wait().ok());
+  }
   EXPECT_TRUE(eventually([&] { return streams_open(c.get()) == 0; }));
 
   // A world made and deleted leaves none behind.
@@ -390,7 +392,9 @@ TEST(FaultTest, KilledCancelledAndTerminatedStreamsEndCleanly) {
   ASSERT_TRUE(extra.ok());
   ASSERT_TRUE(c->delete_world(extra->id).ok());
   EXPECT_EQ(c->list_worlds()->size(), 1u);
-  EXPECT_TRUE(eventually([&] { return server.threads() <= threads_before; }))
+  // gRPC keeps between one and two idle pollers per completion queue, so the idle thread count
+  // varies by up to 2 between moments; a thread kept per stream would leave 11 more.
+  EXPECT_TRUE(eventually([&] { return server.threads() <= threads_before + 2; }))
       << server.threads() << " threads, " << threads_before << " before";
   std::printf("server threads: %d before, %d after\n", threads_before, server.threads());
 
