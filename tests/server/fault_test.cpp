@@ -172,7 +172,7 @@ v1::EditBatch push(int index, double vx) {
 }
 
 // 50 readers (every body or changes, full or quantized) follow a pyramid that another client
-// edits every 25 ticks and steps 300 times; one more reader sleeps 50 ms per frame. Every
+// edits every 25 ticks and steps 300 times; one more reader sleeps 100 ms per frame. Every
 // reader sees ticks that never go back and hashes the world had at those ticks; the slow one
 // is coalesced (skipped frames) and the world never waits for it. The server's resident memory
 // grows by less than 32 MB. Why that bound: each reader holds at most two frames (one in
@@ -217,7 +217,7 @@ TEST(FaultTest, FiftyReadersFollowAnEditedWorldAndASlowOneIsCoalesced) {
   }
   // The slow reader: its own connection with a fixed 64 kB receive window (no BDP growth), as
   // a client on a slow link has; it takes every body at full precision (15 kB frames) and
-  // sleeps 50 ms per frame, so the frames it has not read fill the window and the server
+  // sleeps 100 ms per frame, so the frames it has not read fill the window and the server
   // coalesces the rest.
   auto slow = std::make_unique<Reader>();
   grpc::ChannelArguments args;
@@ -235,7 +235,7 @@ TEST(FaultTest, FiftyReadersFollowAnEditedWorldAndASlowOneIsCoalesced) {
   std::thread slow_thread([&, r = slow.get()] {
     v1::Frame f;
     while (slow_stream->Read(&f)) {
-      std::this_thread::sleep_for(50ms);
+      std::this_thread::sleep_for(100ms);
       std::lock_guard<std::mutex> lock(r->mu);
       r->seen.emplace_back(f.tick(), f.state_hash());
       r->skipped += f.skipped_frames();
