@@ -81,7 +81,7 @@ fulcrum::v1::Scene drifting_circles() {
   return scene;
 }
 
-double step_once(Physics::Stub* stub, uint64_t world) {
+double step_once(Physics::Stub* stub, uint64_t world, double* server_ms = nullptr) {
   fulcrum::v1::StepRequest request;
   request.set_world_id(world);
   request.set_ticks(1);
@@ -90,6 +90,7 @@ double step_once(Physics::Stub* stub, uint64_t world) {
   const auto t = Clock::now();
   grpc::Status st = stub->Step(&context, request, &reply);
   if (!st.ok()) die("step: " + st.error_message());
+  if (server_ms != nullptr) *server_ms += reply.step_ms();
   return ms_since(t);
 }
 
@@ -123,6 +124,7 @@ struct StreamResult {
   double bodies_per_frame = 0;    // mean bodies carried (all 1000 unless CHANGED skips some)
   double coalesced = 0;           // fraction of due frames coalesced away
   double encodings_per_tick = 0;  // frame encodings the server built per tick (shared by readers)
+  double server_ms_per_tick = 0;  // the step and the frames' hand-over to readers, on the server
 };
 
 StreamResult stream_run(const std::string& address, Physics::Stub* driver, uint64_t world,
@@ -165,8 +167,9 @@ StreamResult stream_run(const std::string& address, Physics::Stub* driver, uint6
   const uint64_t encoded_before = fulcrum::server::counters().frames_encoded;
   const auto start = Clock::now();
   int ticks = 0;
+  double server_ms = 0;
   while (ms_since(start) < seconds * 1000.0) {
-    step_once(driver, world);
+    step_once(driver, world, &server_ms);
     ++ticks;
   }
   const double elapsed_s = ms_since(start) / 1000.0;
@@ -181,6 +184,7 @@ StreamResult stream_run(const std::string& address, Physics::Stub* driver, uint6
   StreamResult out;
   out.ticks_per_s = ticks / elapsed_s;
   out.encodings_per_tick = static_cast<double>(encoded) / ticks;
+  out.server_ms_per_tick = server_ms / ticks;
   uint64_t frames = 0, bytes = 0, bodies = 0, skipped = 0;
   for (auto& r : all) {
     frames += r->frames;
@@ -264,19 +268,19 @@ int main(int argc, char** argv) {
   std::printf("\n## Frames of drifting_1000, Step(1) as fast as one client can (%.1f s each)\n\n",
               seconds);
   std::printf(
-      "| bodies | precision | readers | world ticks/s | frames/s per reader | coalesced | "
-      "encodings per tick | bodies per frame | bytes per body per frame |\n"
-      "|---|---|---|---|---|---|---|---|---|\n");
+      "| bodies | precision | readers | world ticks/s | server ms per tick | frames/s per reader | "
+      "coalesced | encodings per tick | bodies per frame | bytes per body per frame |\n"
+      "|---|---|---|---|---|---|---|---|---|---|\n");
   const uint64_t world = create(driver.get(), drifting_circles());
   for (auto mode : {fulcrum::v1::FRAME_BODIES_ALL, fulcrum::v1::FRAME_BODIES_CHANGED}) {
     for (bool quantized : {false, true}) {
       for (int readers : reader_counts) {
         StreamResult r =
             stream_run(address, driver.get(), world, readers, mode, quantized, seconds);
-        std::printf("| %s | %s | %d | %.0f | %.0f | %.0f %% | %.2f | %.0f | %.1f |\n",
+        std::printf("| %s | %s | %d | %.0f | %.2f | %.0f | %.0f %% | %.2f | %.0f | %.1f |\n",
                     mode == fulcrum::v1::FRAME_BODIES_ALL ? "ALL" : "CHANGED",
-                    quantized ? "quantized" : "full", readers, r.ticks_per_s, r.frames_per_s,
-                    100.0 * r.coalesced, r.encodings_per_tick, r.bodies_per_frame,
+                    quantized ? "quantized" : "full", readers, r.ticks_per_s, r.server_ms_per_tick,
+                    r.frames_per_s, 100.0 * r.coalesced, r.encodings_per_tick, r.bodies_per_frame,
                     r.bytes_per_body);
         std::fflush(stdout);
       }

@@ -1,8 +1,11 @@
 #include "physics_service.h"
 
+#include <condition_variable>
+#include <deque>
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <thread>
 #include <utility>
 
 #include "fulcrum/scene.h"
@@ -30,6 +33,42 @@ grpc::Status to_grpc_status(const Status& status) {
   }
   return grpc::Status(grpc::StatusCode::INTERNAL, status.message());
 }
+
+namespace {
+class FrameStream;
+}  // namespace
+
+// One thread that starts the writes of frames offered to idle readers, so that the thread
+// stepping a world only stores a pointer per reader (offer) and never does a reader's encoding
+// or socket work. Writes that complete start the next one on gRPC's own threads (OnWriteDone).
+class FrameSender {
+ public:
+  FrameSender() : thread_([this] { run(); }) {}
+  ~FrameSender() {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      stop_ = true;
+    }
+    cv_.notify_one();
+    thread_.join();
+  }
+  void post(std::shared_ptr<FrameStream> stream) {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      queue_.push_back(std::move(stream));
+    }
+    cv_.notify_one();
+  }
+
+ private:
+  void run();
+
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::deque<std::shared_ptr<FrameStream>> queue_;
+  bool stop_ = false;
+  std::thread thread_;  // last: starts after the members above exist
+};
 
 namespace {
 
@@ -62,16 +101,21 @@ class RefusedStream final : public grpc::ServerWriteReactor<grpc::ByteBuffer> {
 
 // One StreamFrames call. The world's thread offers frames; the newest unread one waits in
 // pending_ (a mailbox of one: a newer frame replaces it and counts as skipped), so a reader
-// that falls behind costs the world nothing and holds at most two frames (one in flight). The
+// that falls behind costs the world nothing and holds at most two frames (one in flight).
+// offer() only stores the frame and, when no write is in flight, posts the stream to the
+// FrameSender, whose thread encodes (encode_shared) and starts the write. The
 // object keeps itself alive (self_) until gRPC calls OnDone; the Session holds a weak_ptr.
 // A write in flight for longer than the stall limit when a newer frame arrives ends the stream
 // with RESOURCE_EXHAUSTED (its client stopped reading). Messages are a reader part (skipped
 // counts) followed by the frame's shared encoding (encode_shared), two slices, no copy.
-class FrameStream final : public grpc::ServerWriteReactor<grpc::ByteBuffer>, public FrameSink {
+class FrameStream final : public grpc::ServerWriteReactor<grpc::ByteBuffer>,
+                          public FrameSink,
+                          public std::enable_shared_from_this<FrameStream> {
  public:
   FrameStream(std::shared_ptr<Session> session, const v1::StreamFramesRequest& request,
-              std::chrono::milliseconds max_stall)
+              std::chrono::milliseconds max_stall, FrameSender* sender)
       : session_(std::move(session)),
+        sender_(sender),
         every_(request.every_ticks() == 0 ? 1 : request.every_ticks()),
         mode_(request.bodies()),
         quantized_(request.quantized()),
@@ -79,8 +123,8 @@ class FrameStream final : public grpc::ServerWriteReactor<grpc::ByteBuffer>, pub
 
   static FrameStream* start(std::shared_ptr<Session> session,
                             const v1::StreamFramesRequest& request,
-                            std::chrono::milliseconds max_stall) {
-    auto stream = std::make_shared<FrameStream>(session, request, max_stall);
+                            std::chrono::milliseconds max_stall, FrameSender* sender) {
+    auto stream = std::make_shared<FrameStream>(session, request, max_stall, sender);
     stream->self_ = stream;
     ++counters().streams_opened;
     ++counters().streams_open;
@@ -111,7 +155,17 @@ class FrameStream final : public grpc::ServerWriteReactor<grpc::ByteBuffer>, pub
       ++counters().frames_coalesced;
     }
     pending_ = std::move(frame);
-    if (writing_) return;  // OnWriteDone picks it up
+    if (writing_ || queued_) return;  // OnWriteDone or the sender picks it up
+    queued_ = true;
+    lock.unlock();
+    sender_->post(shared_from_this());
+  }
+
+  // On the sender's thread: starts a write of the pending frame if none is in flight.
+  void send_pending() {
+    std::unique_lock<std::mutex> lock(mu_);
+    queued_ = false;
+    if (closing_ || writing_ || !pending_) return;
     prepare_write_locked();
     lock.unlock();
     StartWrite(&message_);
@@ -192,6 +246,7 @@ class FrameStream final : public grpc::ServerWriteReactor<grpc::ByteBuffer>, pub
   }
 
   const std::shared_ptr<Session> session_;
+  FrameSender* const sender_;
   const uint32_t every_;
   const v1::FrameBodies mode_;
   const bool quantized_;
@@ -207,6 +262,7 @@ class FrameStream final : public grpc::ServerWriteReactor<grpc::ByteBuffer>, pub
   uint64_t frames_sent_ = 0;
   uint64_t coalesced_total_ = 0;
   bool writing_ = false;
+  bool queued_ = false;  // posted to the sender, not yet picked up
   bool closing_ = false;
   bool finished_ = false;
   grpc::Status final_;
@@ -214,8 +270,24 @@ class FrameStream final : public grpc::ServerWriteReactor<grpc::ByteBuffer>, pub
 
 }  // namespace
 
+void FrameSender::run() {
+  for (;;) {
+    std::shared_ptr<FrameStream> stream;
+    {
+      std::unique_lock<std::mutex> lock(mu_);
+      cv_.wait(lock, [&] { return stop_ || !queue_.empty(); });
+      if (queue_.empty()) return;
+      stream = std::move(queue_.front());
+      queue_.pop_front();
+    }
+    stream->send_pending();
+  }
+}
+
 PhysicsService::PhysicsService(Registry* registry, std::string token)
-    : registry_(registry), token_(std::move(token)) {}
+    : registry_(registry), token_(std::move(token)), sender_(std::make_unique<FrameSender>()) {}
+
+PhysicsService::~PhysicsService() = default;
 
 void PhysicsService::begin_shutdown() {
   shutting_down_ = true;
@@ -388,7 +460,8 @@ grpc::ServerWriteReactor<grpc::ByteBuffer>* PhysicsService::StreamFrames(
   auto session = registry_->find(request->world_id());
   if (!session.ok()) return new RefusedStream(to_grpc_status(session.status()));
   return FrameStream::start(*session, *request,
-                            std::chrono::milliseconds(registry_->limits().max_reader_stall_ms));
+                            std::chrono::milliseconds(registry_->limits().max_reader_stall_ms),
+                            sender_.get());
 }
 
 grpc::Status PhysicsService::GetStats(grpc::ServerContext* context,

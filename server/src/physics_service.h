@@ -6,6 +6,7 @@
 #pragma once
 
 #include <atomic>
+#include <memory>
 #include <string>
 
 #include <grpcpp/grpcpp.h>
@@ -18,11 +19,14 @@ namespace fulcrum::server {
 
 grpc::Status to_grpc_status(const Status& status);
 
+class FrameSender;
+
 class PhysicsService final
     : public v1::Physics::WithRawCallbackMethod_StreamFrames<v1::Physics::Service> {
  public:
   // An empty token turns authentication off.
   PhysicsService(Registry* registry, std::string token);
+  ~PhysicsService() override;
 
   grpc::Status CreateWorld(grpc::ServerContext* context, const v1::CreateWorldRequest* request,
                            v1::CreateWorldReply* reply) override;
@@ -57,6 +61,7 @@ class PhysicsService final
 
   Registry* registry_;
   const std::string token_;
+  std::unique_ptr<FrameSender> sender_;  // hands frames to readers off the stepping threads
   std::atomic<bool> shutting_down_{false};
 };
 
