@@ -178,7 +178,7 @@ v1::EditBatch push(int index, double vx) {
 // grows by less than 32 MB. Why that bound: each reader holds at most two frames (one in
 // flight, one pending; 15 kB each at full precision for these 211 bodies) and gRPC keeps at
 // most one message per stream queued beyond what flow control lets through, so 51 readers
-// need about 51 * (2 * 15 + 64) kB = 5 MB; measured (2026-11-21): 18.6 MB holding the world,
+// need about 51 * (2 * 15 + 64) kB = 5 MB; measured (2026-11-21): 18.4 MB holding the world,
 // a peak about 3 to 4 MB higher with the readers. The rest of the bound is allocator slack.
 TEST(FaultTest, FiftyReadersFollowAnEditedWorldAndASlowOneIsCoalesced) {
   ServerProcess server({"--log", "off"});
