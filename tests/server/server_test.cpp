@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <future>
 #include <limits>
@@ -584,6 +585,8 @@ TEST_F(ServerTest, TlsServesOnlyClientsThatTrustItsCertificate) {
   auto bad = Server::start(half);
   EXPECT_EQ(bad.status().code(), StatusCode::kInvalidArgument);
   EXPECT_NE(bad.status().message().find("tls_cert"), std::string::npos);
+  std::filesystem::remove_all(dir);
+  std::filesystem::remove_all(other);
 }
 
 // Lists services through reflection with the given token ("" for none): the status and the
