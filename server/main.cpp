@@ -14,6 +14,7 @@
 #include <string_view>
 
 #include "server.h"
+#include "stats.h"
 
 namespace {
 
@@ -33,6 +34,12 @@ constexpr char kUsage[] =
     "                           number of hardware threads)\n"
     "  --replay-dir DIR         where StartRecording writes replays (created if missing;\n"
     "                           default: none, recording is refused)\n"
+    "  --tls-cert FILE          serve TLS only, with this PEM certificate chain (needs --tls-key)\n"
+    "  --tls-key FILE           the PEM private key of --tls-cert\n"
+    "  --max-reader-stall-ms N  end a StreamFrames reader with RESOURCE_EXHAUSTED when its\n"
+    "                           frame has been in flight this long (default 10000)\n"
+    "  --log on|off             one key=value line per world event and refused request on\n"
+    "                           stderr (default on)\n"
     "\n"
     "exit codes: 0 stopped by a signal, 1 could not start, 2 bad command line\n";
 
@@ -56,6 +63,25 @@ bool read_token(const std::string& path, std::string* token, std::string* error)
   while (!token->empty() && (token->back() == '\r' || token->back() == ' ')) token->pop_back();
   if (token->empty()) {
     *error = path + ": the first line (the token) is empty";
+    return false;
+  }
+  return true;
+}
+
+// A whole PEM file; false (and *error naming the flag and file) when it cannot be read or is
+// not PEM.
+bool read_pem(const std::string& flag, const std::string& path, std::string* pem,
+              std::string* error) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    *error = flag + ": cannot read " + path;
+    return false;
+  }
+  std::ostringstream text;
+  text << in.rdbuf();
+  *pem = text.str();
+  if (pem->find("-----BEGIN ") == std::string::npos) {
+    *error = flag + ": " + path + " is not a PEM file (no -----BEGIN line)";
     return false;
   }
   return true;
@@ -117,9 +143,27 @@ int main(int argc, char** argv) {
     } else if (arg == "--replay-dir") {
       if (value.empty()) return usage_error(arg + ": expected a directory");
       options.replay_dir = value;
+    } else if (arg == "--tls-cert" || arg == "--tls-key") {
+      std::string error;
+      if (!read_pem(arg, value, arg == "--tls-cert" ? &options.tls_cert_pem : &options.tls_key_pem,
+                    &error)) {
+        std::cerr << "fulcrum-server: " << error << "\n";
+        return 1;
+      }
+    } else if (arg == "--max-reader-stall-ms") {
+      if (!parse_number(value, 1, 86400000, &n)) return usage_error(arg + ": expected >= 1");
+      options.limits.max_reader_stall_ms = n;
+    } else if (arg == "--log") {
+      if (value != "on" && value != "off") return usage_error(arg + ": expected on or off");
+      fulcrum::server::set_logging(value == "on");
     } else {
       return usage_error("unknown flag '" + arg + "'");
     }
+  }
+
+  if (options.tls_cert_pem.empty() != options.tls_key_pem.empty()) {
+    return usage_error(options.tls_cert_pem.empty() ? "--tls-key needs --tls-cert"
+                                                    : "--tls-cert needs --tls-key");
   }
 
   // Signals are taken by sigwait on this thread only: block them before gRPC starts threads,
@@ -136,6 +180,9 @@ int main(int argc, char** argv) {
     return 1;
   }
   std::cout << "listening on " << (*server)->address() << std::endl;
+  fulcrum::server::log_event("listening", {{"address", (*server)->address()},
+                                           {"tls", options.tls_cert_pem.empty() ? "off" : "on"},
+                                           {"token", options.token.empty() ? "off" : "on"}});
 
   int signal_number = 0;
   sigwait(&signals, &signal_number);

@@ -13,6 +13,7 @@ FULCRUM_PACKAGES=(
   libprotobuf-dev protobuf-compiler libgrpc++-dev protobuf-compiler-grpc
   libgtest-dev libgmock-dev libbenchmark-dev
   libbox2d-dev
+  openssl
 )
 
 fulcrum_install_packages() {

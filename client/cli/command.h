@@ -83,5 +83,6 @@ int run_watch(const Invocation& inv);
 int run_run(const Invocation& inv);
 int run_pause(const Invocation& inv);
 int run_query(const Invocation& inv);
+int run_stats(const Invocation& inv);
 
 }  // namespace fulcrum::cli

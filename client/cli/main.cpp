@@ -30,27 +30,34 @@ constexpr FlagSpec kReplayFlags[] = {
     kDeadlineFlag,
 };
 
-constexpr FlagSpec kRemoteFlags[] = {kServerFlag, kTokenFileFlag, kDeadlineFlag};
-constexpr FlagSpec kCreateFlags[] = {kSceneFlag, kServerFlag, kTokenFileFlag, kDeadlineFlag};
-constexpr FlagSpec kStepFlags[] = {kServerFlag,
-                                   kTokenFileFlag,
-                                   kDeadlineFlag,
-                                   {"expected-tick", "T", "step only if the world is at tick T"}};
+constexpr FlagSpec kRemoteFlags[] = {kServerFlag, kTokenFileFlag, kDeadlineFlag, kTlsCaFlag,
+                                     kTlsNameFlag};
+constexpr FlagSpec kCreateFlags[] = {kSceneFlag,    kServerFlag, kTokenFileFlag,
+                                     kDeadlineFlag, kTlsCaFlag,  kTlsNameFlag};
+constexpr FlagSpec kStepFlags[] = {
+    kServerFlag, kTokenFileFlag, kDeadlineFlag,
+    kTlsCaFlag,  kTlsNameFlag,   {"expected-tick", "T", "step only if the world is at tick T"}};
 constexpr FlagSpec kEditFlags[] = {
     kServerFlag,
     kTokenFileFlag,
     kDeadlineFlag,
+    kTlsCaFlag,
+    kTlsNameFlag,
     {"file", "EDITS.json", "the batch (Protobuf JSON of fulcrum.v1.EditBatch)"},
     {"expected-tick", "T", "apply only if the world is at tick T"}};
 constexpr FlagSpec kSnapshotFlags[] = {kServerFlag,
                                        kTokenFileFlag,
                                        kDeadlineFlag,
+                                       kTlsCaFlag,
+                                       kTlsNameFlag,
                                        {"out", "FILE", "get: the snapshot file to write"},
                                        {"file", "FILE", "restore: the snapshot file to read"}};
 constexpr FlagSpec kWatchFlags[] = {
     kServerFlag,
     kTokenFileFlag,
     kDeadlineFlag,
+    kTlsCaFlag,
+    kTlsNameFlag,
     {"seconds", "S", "stop after S seconds (default: when the stream ends)"},
     {"every", "K", "a frame every K ticks (default 1; late frames are coalesced)"}};
 
@@ -131,6 +138,11 @@ constexpr Command kCommands[] = {
      "Against the world at its current tick (m). A ray goes from (X1, Y1) to (X2, Y2); shapes\n"
      "print as INDEX:GENERATION handles. --category/--mask filter like a shape's filter.",
      kQueryFlags, 6, run_query},
+    {"stats", "print a fulcrum-server's counters (ticks, step time, frames, refusals)", "",
+     "Totals since the server started (GetStats): worlds created, deleted and restored, ticks\n"
+     "stepped and step time, streams, frames sent, coalesced and encoded, readers ended for\n"
+     "falling too far behind, and refused requests by status code.",
+     kRemoteFlags, 0, run_stats},
 };
 
 void print_main_help(std::ostream& out) {

@@ -40,6 +40,27 @@ std::unique_ptr<client::Client> connect_from_args(const Invocation& inv, int* ex
     }
     options.deadline = std::chrono::milliseconds(*parsed);
   }
+  if (auto file = inv.args.value("tls-ca")) {
+    std::string error;
+    std::optional<std::string> pem = read_file(*file, &error);
+    if (!pem) {
+      *exit_code = inv.fail("--tls-ca: " + error);
+      return nullptr;
+    }
+    if (pem->find("-----BEGIN CERTIFICATE-----") == std::string::npos) {
+      *exit_code = inv.fail("--tls-ca: " + *file + " holds no PEM certificate");
+      return nullptr;
+    }
+    options.tls = true;
+    options.tls_ca_pem = *pem;
+  }
+  if (auto name = inv.args.value("tls-name")) {
+    if (!options.tls) {
+      *exit_code = inv.usage_error("--tls-name needs --tls-ca");
+      return nullptr;
+    }
+    options.tls_target_name = *name;
+  }
   return client::Client::connect(options);
 }
 

@@ -1,5 +1,6 @@
 // Shared by the subcommands that talk to a fulcrum-server (create, worlds, step, edit,
-// snapshot, watch): the --server and --token-file flags, connecting, and reading a world id.
+// snapshot, watch, stats): the --server, --token-file, --deadline-ms and TLS flags, connecting, and
+// reading a world id.
 #pragma once
 
 #include <cstdint>
@@ -19,9 +20,13 @@ inline constexpr FlagSpec kTokenFileFlag = {"token-file", "FILE",
                                             "bearer token for the server (first line of FILE)"};
 inline constexpr FlagSpec kDeadlineFlag = {"deadline-ms", "MS",
                                            "deadline of each call (default 30000)"};
+inline constexpr FlagSpec kTlsCaFlag = {
+    "tls-ca", "FILE", "connect with TLS, trusting the PEM root certificate(s) in FILE"};
+inline constexpr FlagSpec kTlsNameFlag = {
+    "tls-name", "NAME", "with --tls-ca: the name the server's certificate must carry"};
 
-// Connects per --server/--token-file/--deadline-ms. On error prints why, sets *exit_code and
-// returns null.
+// Connects per --server/--token-file/--deadline-ms/--tls-ca/--tls-name. On error prints why, sets
+// *exit_code and returns null.
 std::unique_ptr<client::Client> connect_from_args(const Invocation& inv, int* exit_code);
 
 // Positional argument `index` as a world id (>= 1). On error prints a usage error, sets

@@ -5,6 +5,7 @@
 #include <google/protobuf/util/json_util.h>
 #include <grpcpp/grpcpp.h>
 
+#include <algorithm>
 #include <atomic>
 #include <mutex>
 #include <thread>
@@ -138,6 +139,11 @@ void vec_to(const Vec2& v, v1::Vec2* out) {
   out->set_y(v.y());
 }
 
+// frames.proto, QuantizedBodyFrame.
+constexpr double kPositionStep = 1.0 / 4096.0;                             // m
+constexpr double kAngleStep = 6.283185307179586476925286766559 / 65536.0;  // rad
+constexpr double kVelocityStep = 1.0 / 1024.0;                             // m/s and rad/s
+
 Frame frame_from(const v1::Frame& f) {
   Frame out;
   out.world_id = f.world_id();
@@ -150,6 +156,19 @@ Frame frame_from(const v1::Frame& f) {
   out.full = f.full();
   out.restored = f.restored();
   out.bodies.reserve(f.bodies_size());
+  out.bodies.reserve(f.bodies_size() + f.quantized_bodies_size());
+  for (const v1::QuantizedBodyFrame& q : f.quantized_bodies()) {
+    BodyFrame m;
+    m.id.index = q.index();
+    m.id.generation = q.generation();
+    m.position = Vec2(q.x() * kPositionStep, q.y() * kPositionStep);
+    m.angle = q.angle() * kAngleStep;
+    m.linear_velocity = Vec2(q.vx() * kVelocityStep, q.vy() * kVelocityStep);
+    m.angular_velocity = q.angular_velocity() * kVelocityStep;
+    m.awake = q.awake();
+    m.quantized = true;
+    out.bodies.push_back(m);
+  }
   for (const v1::BodyFrame& b : f.bodies()) {
     BodyFrame m;
     m.id = id_from<BodyId>(b.body());
@@ -159,6 +178,12 @@ Frame frame_from(const v1::Frame& f) {
     m.angular_velocity = b.angular_velocity();
     m.awake = b.awake();
     out.bodies.push_back(m);
+  }
+  // Quantized bodies and full-precision fallbacks come in two lists: one index order.
+  if (f.quantized_bodies_size() > 0 && f.bodies_size() > 0) {
+    std::stable_sort(
+        out.bodies.begin(), out.bodies.end(),
+        [](const BodyFrame& a, const BodyFrame& b) { return a.id.index < b.id.index; });
   }
   for (const v1::Handle& h : f.destroyed()) out.destroyed.push_back(id_from<BodyId>(h));
   return out;
@@ -221,7 +246,16 @@ class GrpcClient final : public Client {
   explicit GrpcClient(const ClientOptions& options) : options_(options) {
     grpc::ChannelArguments args;
     args.SetMaxReceiveMessageSize(-1);  // the server enforces its own limit
-    channel_ = grpc::CreateCustomChannel(options.address, grpc::InsecureChannelCredentials(), args);
+    std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials();
+    if (options.tls) {
+      grpc::SslCredentialsOptions tls;
+      tls.pem_root_certs = options.tls_ca_pem;
+      credentials = grpc::SslCredentials(tls);
+      if (!options.tls_target_name.empty()) {
+        args.SetSslTargetNameOverride(options.tls_target_name);
+      }
+    }
+    channel_ = grpc::CreateCustomChannel(options.address, credentials, args);
     stub_ = v1::Physics::NewStub(channel_);
   }
 
@@ -349,6 +383,7 @@ class GrpcClient final : public Client {
     request.set_bodies(options.bodies == FrameBodies::kAll       ? v1::FRAME_BODIES_ALL
                        : options.bodies == FrameBodies::kChanged ? v1::FRAME_BODIES_CHANGED
                                                                  : v1::FRAME_BODIES_NONE);
+    request.set_quantized(options.quantized);
     return std::unique_ptr<Subscription>(
         new GrpcSubscription(stub_.get(), options_.token, request, std::move(on_frame)));
   }
@@ -510,6 +545,14 @@ class GrpcClient final : public Client {
       return data_loss("replay: checksum mismatch (the download is damaged)");
     }
     return out;
+  }
+
+  Result<v1::ServerStats> get_stats() override {
+    v1::ServerStats reply;
+    auto context = make_context();
+    Status st = from_grpc(stub_->GetStats(context.get(), v1::GetStatsRequest(), &reply));
+    if (!st.ok()) return st;
+    return reply;
   }
 
  private:

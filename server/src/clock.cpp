@@ -5,13 +5,9 @@
 #include <string>
 
 #include "session.h"
+#include "stats.h"
 
 namespace fulcrum::server {
-
-void log_world_event(uint64_t world_id, const std::string& what) {
-  std::fprintf(stderr, "fulcrum-server: world %llu: %s\n",
-               static_cast<unsigned long long>(world_id), what.c_str());
-}
 
 // --- The schedule -----------------------------------------------------------------------------
 
@@ -81,16 +77,18 @@ Status Session::set_run_mode(RealTimePool* pool, v1::RunMode mode,
         clock_.begin(SteadyClock::now(), world_.tick(), world_.settings().dt);
         char hz[32];
         std::snprintf(hz, sizeof hz, "%g", 1.0 / clock_.dt);
-        log_world_event(id_, std::string("real time at ") + hz + " Hz from tick " +
-                                 std::to_string(world_.tick()) + ", catch-up cap " +
-                                 std::to_string(clock_.max_catch_up) + " ticks");
+        log_event("world_running", {{"world", id_},
+                                    {"hz", std::string(hz)},
+                                    {"tick", world_.tick()},
+                                    {"max_catch_up", clock_.max_catch_up}});
       }
       first_due = clock_.next_due();
     } else if (was_running) {
       clock_.mode = v1::RUN_MODE_PAUSED;
-      log_world_event(id_, "paused at tick " + std::to_string(world_.tick()) + " after " +
-                               std::to_string(clock_.ticks_run) + " real-time ticks (" +
-                               std::to_string(clock_.ticks_dropped) + " dropped)");
+      log_event("world_paused", {{"world", id_},
+                                 {"tick", world_.tick()},
+                                 {"ticks_run", clock_.ticks_run},
+                                 {"ticks_dropped", clock_.ticks_dropped}});
     }
     reply->set_mode(clock_.mode);
     reply->set_tick(world_.tick());
@@ -136,7 +134,9 @@ std::optional<SteadyClock::time_point> Session::run_due_ticks(SteadyClock::time_
   const int64_t due = clock_.due_at(now);
   if (due > 0) {
     const int64_t run = std::min<int64_t>(due, clock_.max_catch_up);
+    const auto stepping = SteadyClock::now();
     for (int64_t i = 0; i < run; ++i) tick_locked();
+    counters().add_steps(static_cast<uint32_t>(run), SteadyClock::now() - stepping);
     clock_.slots += due;  // the ticks beyond the cap are dropped from the schedule
     clock_.ticks_run += run;
     ++clock_.wakes;
@@ -147,10 +147,10 @@ std::optional<SteadyClock::time_point> Session::run_due_ticks(SteadyClock::time_
       ++clock_.late_wakes;
     }
     if (clock_.dropped_unlogged > 0 && now - clock_.last_log >= std::chrono::seconds(1)) {
-      log_world_event(id_, "behind real time: " + std::to_string(clock_.dropped_unlogged) +
-                               " ticks dropped in the last second (" +
-                               std::to_string(clock_.ticks_dropped) + " in this run, tick " +
-                               std::to_string(world_.tick()) + ")");
+      log_event("world_behind", {{"world", id_},
+                                 {"tick", world_.tick()},
+                                 {"dropped_last_second", clock_.dropped_unlogged},
+                                 {"dropped_this_run", clock_.ticks_dropped}});
       clock_.dropped_unlogged = 0;
       clock_.last_log = now;
     }

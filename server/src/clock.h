@@ -107,7 +107,4 @@ class RealTimePool {
   std::vector<std::thread> threads_;
 };
 
-// One log line on stderr: "fulcrum-server: world ID: WHAT".
-void log_world_event(uint64_t world_id, const std::string& what);
-
 }  // namespace fulcrum::server

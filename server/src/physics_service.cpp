@@ -1,8 +1,11 @@
 #include "physics_service.h"
 
+#include <condition_variable>
+#include <deque>
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <thread>
 #include <utility>
 
 #include <filesystem>
@@ -10,6 +13,7 @@
 #include "fulcrum/scene.h"
 #include "replay_download.h"
 #include "scene_convert.h"
+#include "stats.h"
 
 namespace fulcrum::server {
 
@@ -34,6 +38,42 @@ grpc::Status to_grpc_status(const Status& status) {
 }
 
 namespace {
+class FrameStream;
+}  // namespace
+
+// One thread that starts the writes of frames offered to idle readers, so that the thread
+// stepping a world only stores a pointer per reader (offer) and never does a reader's encoding
+// or socket work. Writes that complete start the next one on gRPC's own threads (OnWriteDone).
+class FrameSender {
+ public:
+  FrameSender() : thread_([this] { run(); }) {}
+  ~FrameSender() {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      stop_ = true;
+    }
+    cv_.notify_one();
+    thread_.join();
+  }
+  void post(std::shared_ptr<FrameStream> stream) {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      queue_.push_back(std::move(stream));
+    }
+    cv_.notify_one();
+  }
+
+ private:
+  void run();
+
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::deque<std::shared_ptr<FrameStream>> queue_;
+  bool stop_ = false;
+  std::thread thread_;  // last: starts after the members above exist
+};
+
+namespace {
 
 std::optional<int64_t> optional_tick(bool has, int64_t value) {
   return has ? std::optional<int64_t>(value) : std::nullopt;
@@ -49,29 +89,54 @@ bool same_secret(std::string_view a, std::string_view b) {
 }
 
 // A stream that ends at once with an error (bad request, unknown world).
+// Counted and logged like any refused request.
 template <typename Message>
 class Refused final : public grpc::ServerWriteReactor<Message> {
  public:
-  explicit Refused(grpc::Status status) { this->Finish(std::move(status)); }
+  Refused(const char* rpc, grpc::Status status) {
+    counters().add_refused(status.error_code());
+    log_event("refused", {{"rpc", rpc},
+                          {"code", status_code_name(status.error_code())},
+                          {"field", field_of(status.error_message())},
+                          {"message", status.error_message()}});
+    this->Finish(std::move(status));
+  }
   void OnDone() override { delete this; }
 };
-using RefusedStream = Refused<v1::Frame>;
 
 // One StreamFrames call. The world's thread offers frames; the newest unread one waits in
 // pending_ (a mailbox of one: a newer frame replaces it and counts as skipped), so a reader
-// that falls behind costs the world nothing and holds at most two frames (one in flight). The
+// that falls behind costs the world nothing and holds at most two frames (one in flight).
+// offer() only stores the frame and, when no write is in flight, posts the stream to the
+// FrameSender, whose thread encodes (encode_shared) and starts the write. The
 // object keeps itself alive (self_) until gRPC calls OnDone; the Session holds a weak_ptr.
-class FrameStream final : public grpc::ServerWriteReactor<v1::Frame>, public FrameSink {
+// A write in flight for longer than the stall limit when a newer frame arrives ends the stream
+// with RESOURCE_EXHAUSTED (its client stopped reading). Messages are a reader part (skipped
+// counts) followed by the frame's shared encoding (encode_shared), two slices, no copy.
+class FrameStream final : public grpc::ServerWriteReactor<grpc::ByteBuffer>,
+                          public FrameSink,
+                          public std::enable_shared_from_this<FrameStream> {
  public:
-  FrameStream(std::shared_ptr<Session> session, const v1::StreamFramesRequest& request)
+  FrameStream(std::shared_ptr<Session> session, const v1::StreamFramesRequest& request,
+              std::chrono::milliseconds max_stall, FrameSender* sender)
       : session_(std::move(session)),
+        sender_(sender),
         every_(request.every_ticks() == 0 ? 1 : request.every_ticks()),
-        mode_(request.bodies()) {}
+        mode_(request.bodies()),
+        quantized_(request.quantized()),
+        max_stall_(max_stall) {}
 
   static FrameStream* start(std::shared_ptr<Session> session,
-                            const v1::StreamFramesRequest& request) {
-    auto stream = std::make_shared<FrameStream>(session, request);
+                            const v1::StreamFramesRequest& request,
+                            std::chrono::milliseconds max_stall, FrameSender* sender) {
+    auto stream = std::make_shared<FrameStream>(session, request, max_stall, sender);
     stream->self_ = stream;
+    ++counters().streams_opened;
+    ++counters().streams_open;
+    log_event("stream_opened", {{"world", session->id()},
+                                {"every_ticks", stream->every_},
+                                {"bodies", v1::FrameBodies_Name(stream->mode_)},
+                                {"quantized", stream->quantized_ ? "true" : "false"}});
     session->subscribe(stream);
     return stream.get();
   }
@@ -81,9 +146,31 @@ class FrameStream final : public grpc::ServerWriteReactor<v1::Frame>, public Fra
   void offer(std::shared_ptr<const PublishedFrame> frame) override {
     std::unique_lock<std::mutex> lock(mu_);
     if (closing_) return;
-    if (pending_) ++skipped_;
+    if (writing_ && std::chrono::steady_clock::now() - write_started_ > max_stall_) {
+      ++counters().readers_too_slow;
+      lock.unlock();
+      end(grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                       "frames: this reader took no frame for more than " +
+                           std::to_string(max_stall_.count()) +
+                           " ms (--max-reader-stall-ms) while the world moved on"));
+      return;
+    }
+    if (pending_) {
+      ++skipped_;
+      ++counters().frames_coalesced;
+    }
     pending_ = std::move(frame);
-    if (writing_) return;  // OnWriteDone picks it up
+    if (writing_ || queued_) return;  // OnWriteDone or the sender picks it up
+    queued_ = true;
+    lock.unlock();
+    sender_->post(shared_from_this());
+  }
+
+  // On the sender's thread: starts a write of the pending frame if none is in flight.
+  void send_pending() {
+    std::unique_lock<std::mutex> lock(mu_);
+    queued_ = false;
+    if (closing_ || writing_ || !pending_) return;
     prepare_write_locked();
     lock.unlock();
     StartWrite(&message_);
@@ -119,6 +206,11 @@ class FrameStream final : public grpc::ServerWriteReactor<v1::Frame>, public Fra
   }
 
   void OnDone() override {
+    --counters().streams_open;
+    log_event("stream_closed", {{"world", session_->id()},
+                                {"code", status_code_name(final_.error_code())},
+                                {"frames", frames_sent_},
+                                {"coalesced", coalesced_total_}});
     session_->unsubscribe(this);
     std::shared_ptr<FrameStream> last = std::move(self_);  // may destroy this on return
   }
@@ -136,24 +228,46 @@ class FrameStream final : public grpc::ServerWriteReactor<v1::Frame>, public Fra
   }
 
   void prepare_write_locked() {
-    frame_to_proto(*pending_, last_sent_.get(), mode_, skipped_, every_, &message_);
+    bool built = false;
+    std::shared_ptr<const std::string> shared =
+        encode_shared(*pending_, last_sent_.get(), mode_, quantized_, &built);
+    if (built) ++counters().frames_encoded;
+    // The slice holds a reference to the shared bytes until gRPC has sent them.
+    auto* keep = new std::shared_ptr<const std::string>(shared);
+    grpc::Slice slices[2] = {
+        grpc::Slice(encode_reader_part(skipped_, every_)),
+        grpc::Slice(
+            const_cast<char*>(shared->data()), shared->size(),
+            [](void* p) { delete static_cast<std::shared_ptr<const std::string>*>(p); }, keep)};
+    message_ = grpc::ByteBuffer(slices, 2);
+    coalesced_total_ += skipped_;
+    ++frames_sent_;
+    ++counters().frames_sent;
     last_sent_ = std::move(pending_);
     pending_.reset();
     skipped_ = 0;
     writing_ = true;
+    write_started_ = std::chrono::steady_clock::now();
   }
 
   const std::shared_ptr<Session> session_;
+  FrameSender* const sender_;
   const uint32_t every_;
   const v1::FrameBodies mode_;
+  const bool quantized_;
+  const std::chrono::milliseconds max_stall_;
   std::shared_ptr<FrameStream> self_;
 
   std::mutex mu_;
   std::shared_ptr<const PublishedFrame> pending_;    // newest frame not yet sent
   std::shared_ptr<const PublishedFrame> last_sent_;  // what the reader has (CHANGED diffs)
   uint64_t skipped_ = 0;
-  v1::Frame message_;  // the write in flight; untouched while writing_
+  grpc::ByteBuffer message_;  // the write in flight; untouched while writing_
+  std::chrono::steady_clock::time_point write_started_;
+  uint64_t frames_sent_ = 0;
+  uint64_t coalesced_total_ = 0;
   bool writing_ = false;
+  bool queued_ = false;  // posted to the sender, not yet picked up
   bool closing_ = false;
   bool finished_ = false;
   grpc::Status final_;
@@ -161,8 +275,24 @@ class FrameStream final : public grpc::ServerWriteReactor<v1::Frame>, public Fra
 
 }  // namespace
 
+void FrameSender::run() {
+  for (;;) {
+    std::shared_ptr<FrameStream> stream;
+    {
+      std::unique_lock<std::mutex> lock(mu_);
+      cv_.wait(lock, [&] { return stop_ || !queue_.empty(); });
+      if (queue_.empty()) return;
+      stream = std::move(queue_.front());
+      queue_.pop_front();
+    }
+    stream->send_pending();
+  }
+}
+
 PhysicsService::PhysicsService(Registry* registry, std::string token)
-    : registry_(registry), token_(std::move(token)) {}
+    : registry_(registry), token_(std::move(token)), sender_(std::make_unique<FrameSender>()) {}
+
+PhysicsService::~PhysicsService() = default;
 
 void PhysicsService::begin_shutdown() {
   shutting_down_ = true;
@@ -313,21 +443,41 @@ grpc::Status PhysicsService::Query(grpc::ServerContext* context, const v1::Query
   return to_grpc_status((*session)->query(*request, reply));
 }
 
-grpc::ServerWriteReactor<v1::Frame>* PhysicsService::StreamFrames(
-    grpc::CallbackServerContext* context, const v1::StreamFramesRequest* request) {
+grpc::ServerWriteReactor<grpc::ByteBuffer>* PhysicsService::StreamFrames(
+    grpc::CallbackServerContext* context, const grpc::ByteBuffer* raw_request) {
+  v1::StreamFramesRequest parsed;
+  grpc::ByteBuffer copy(*raw_request);  // Deserialize consumes its buffer
+  if (!grpc::SerializationTraits<v1::StreamFramesRequest>::Deserialize(&copy, &parsed).ok()) {
+    return new Refused<grpc::ByteBuffer>(
+        "StreamFrames",
+        grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "request: not a StreamFramesRequest"));
+  }
+  const v1::StreamFramesRequest* request = &parsed;
   grpc::Status auth = check_token(*context);
-  if (!auth.ok()) return new RefusedStream(auth);
+  if (!auth.ok()) return new Refused<grpc::ByteBuffer>("StreamFrames", auth);
   if (shutting_down_) {
-    return new RefusedStream(grpc::Status(grpc::StatusCode::UNAVAILABLE, "the server is stopping"));
+    return new Refused<grpc::ByteBuffer>(
+        "StreamFrames", grpc::Status(grpc::StatusCode::UNAVAILABLE, "the server is stopping"));
   }
   if (!v1::FrameBodies_IsValid(request->bodies())) {
-    return new RefusedStream(
+    return new Refused<grpc::ByteBuffer>(
+        "StreamFrames",
         grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
                      "bodies: unknown FrameBodies value " + std::to_string(request->bodies())));
   }
   auto session = registry_->find(request->world_id());
-  if (!session.ok()) return new RefusedStream(to_grpc_status(session.status()));
-  return FrameStream::start(*session, *request);
+  if (!session.ok())
+    return new Refused<grpc::ByteBuffer>("StreamFrames", to_grpc_status(session.status()));
+  return FrameStream::start(*session, *request,
+                            std::chrono::milliseconds(registry_->limits().max_reader_stall_ms),
+                            sender_.get());
+}
+
+grpc::Status PhysicsService::GetStats(grpc::ServerContext* context,
+                                      const v1::GetStatsRequest* request, v1::ServerStats* reply) {
+  FULCRUM_CHECK_TOKEN(context);
+  counters().to_proto(static_cast<uint32_t>(registry_->list().size()), reply);
+  return grpc::Status::OK;
 }
 
 // --- Real time and replays on the server ------------------------------------------------------
@@ -398,13 +548,14 @@ Result<ReplayFileRef> find_replay(Registry* registry, const v1::DownloadReplayRe
 grpc::ServerWriteReactor<v1::ReplayChunk>* PhysicsService::DownloadReplay(
     grpc::CallbackServerContext* context, const v1::DownloadReplayRequest* request) {
   grpc::Status auth = check_token(*context);
-  if (!auth.ok()) return new Refused<v1::ReplayChunk>(auth);
+  if (!auth.ok()) return new Refused<v1::ReplayChunk>("DownloadReplay", auth);
   if (shutting_down_) {
     return new Refused<v1::ReplayChunk>(
-        grpc::Status(grpc::StatusCode::UNAVAILABLE, "the server is stopping"));
+        "DownloadReplay", grpc::Status(grpc::StatusCode::UNAVAILABLE, "the server is stopping"));
   }
   Result<ReplayFileRef> file = find_replay(registry_, *request);
-  if (!file.ok()) return new Refused<v1::ReplayChunk>(to_grpc_status(file.status()));
+  if (!file.ok())
+    return new Refused<v1::ReplayChunk>("DownloadReplay", to_grpc_status(file.status()));
   return start_replay_download(*file);
 }
 

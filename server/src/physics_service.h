@@ -6,6 +6,7 @@
 #pragma once
 
 #include <atomic>
+#include <memory>
 #include <string>
 
 #include <grpcpp/grpcpp.h>
@@ -18,12 +19,15 @@ namespace fulcrum::server {
 
 grpc::Status to_grpc_status(const Status& status);
 
+class FrameSender;
+
 class PhysicsService final
     : public v1::Physics::WithCallbackMethod_DownloadReplay<
-          v1::Physics::WithCallbackMethod_StreamFrames<v1::Physics::Service>> {
+          v1::Physics::WithRawCallbackMethod_StreamFrames<v1::Physics::Service>> {
  public:
   // An empty token turns authentication off.
   PhysicsService(Registry* registry, std::string token);
+  ~PhysicsService() override;
 
   grpc::Status CreateWorld(grpc::ServerContext* context, const v1::CreateWorldRequest* request,
                            v1::CreateWorldReply* reply) override;
@@ -44,8 +48,11 @@ class PhysicsService final
                                v1::RestoreSnapshotReply* reply) override;
   grpc::Status Query(grpc::ServerContext* context, const v1::QueryRequest* request,
                      v1::QueryReply* reply) override;
-  grpc::ServerWriteReactor<v1::Frame>* StreamFrames(
-      grpc::CallbackServerContext* context, const v1::StreamFramesRequest* request) override;
+  // Raw bytes out: frames are encoded once and shared by readers (frames.h).
+  grpc::ServerWriteReactor<grpc::ByteBuffer>* StreamFrames(
+      grpc::CallbackServerContext* context, const grpc::ByteBuffer* request) override;
+  grpc::Status GetStats(grpc::ServerContext* context, const v1::GetStatsRequest* request,
+                        v1::ServerStats* reply) override;
 
   // Real time and replays on the server (clock.h, recorder.h).
   grpc::Status SetRunMode(grpc::ServerContext* context, const v1::SetRunModeRequest* request,
@@ -66,6 +73,7 @@ class PhysicsService final
 
   Registry* registry_;
   const std::string token_;
+  std::unique_ptr<FrameSender> sender_;  // hands frames to readers off the stepping threads
   std::atomic<bool> shutting_down_{false};
 };
 

@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "session.h"
+#include "stats.h"
 
 namespace fulcrum::server {
 
@@ -84,8 +85,8 @@ Status Session::start_recording(ReplayStore* store, std::optional<uint32_t> keyf
   if (!recorder.ok()) return recorder.status();
   recorder_ = std::move(recorder).value();
   recording_error_.clear();
-  log_world_event(id_,
-                  "recording " + recorder_->name() + " from tick " + std::to_string(world_.tick()));
+  log_event("recording_started",
+            {{"world", id_}, {"replay", recorder_->name()}, {"tick", world_.tick()}});
   reply->set_name(recorder_->name());
   reply->set_tick(world_.tick());
   refresh_summary_locked(world_.state_hash());
@@ -100,10 +101,11 @@ void Session::end_recording_locked(const std::string& error) {
   Status closed = recorder_->stop();
   recorder_.reset();
   recording_error_ = !error.empty() ? error : closed.ok() ? std::string() : closed.message();
-  log_world_event(id_, "recording " + last_replay_.name + " closed after " +
-                           std::to_string(last_replay_ticks_) + " ticks, " +
-                           std::to_string(last_replay_.bytes) + " bytes" +
-                           (recording_error_.empty() ? "" : ": " + recording_error_));
+  log_event("recording_closed", {{"world", id_},
+                                 {"replay", last_replay_.name},
+                                 {"ticks", last_replay_ticks_},
+                                 {"bytes", last_replay_.bytes},
+                                 {"error", recording_error_}});
 }
 
 Status Session::stop_recording(v1::StopRecordingReply* reply) {

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <thread>
 
+#include "call_guard.h"
 #include "clock.h"
 #include "physics_service.h"
 #include "recorder.h"
@@ -19,6 +20,11 @@ Result<std::unique_ptr<Server>> Server::start(const ServerOptions& options) {
   }
   if (options.max_message_bytes <= 0) {
     return invalid_argument("max_message_bytes: must be > 0");
+  }
+  if (options.tls_cert_pem.empty() != options.tls_key_pem.empty()) {
+    return invalid_argument(options.tls_cert_pem.empty()
+                                ? "tls_cert: required with a TLS key"
+                                : "tls_key: required with a TLS certificate");
   }
   grpc::EnableDefaultHealthCheckService(true);
   if (options.reflection) grpc::reflection::InitProtoReflectionServerBuilderPlugin();
@@ -44,14 +50,25 @@ Result<std::unique_ptr<Server>> Server::start(const ServerOptions& options) {
 
   grpc::ServerBuilder builder;
   int port = 0;
-  builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &port);
+  std::shared_ptr<grpc::ServerCredentials> credentials = grpc::InsecureServerCredentials();
+  if (!options.tls_cert_pem.empty()) {
+    grpc::SslServerCredentialsOptions tls;
+    tls.pem_key_cert_pairs.push_back({options.tls_key_pem, options.tls_cert_pem});
+    credentials = grpc::SslServerCredentials(tls);
+  }
+  builder.AddListeningPort(options.listen, credentials, &port);
+  builder.experimental().SetInterceptorCreators(make_call_guards(options.token));
   builder.RegisterService(server->service_.get());
   builder.SetMaxReceiveMessageSize(options.max_message_bytes);
   builder.SetMaxSendMessageSize(options.max_message_bytes);
   server->server_ = builder.BuildAndStart();
   if (!server->server_ || port == 0) {
     return Status(StatusCode::kFailedPrecondition,
-                  "listen: cannot listen on " + options.listen + " (in use, or a bad address)");
+                  "listen: cannot listen on " + options.listen +
+                      (options.tls_cert_pem.empty()
+                           ? " (in use, or a bad address)"
+                           : " (in use, a bad address, or a TLS certificate and key that are not "
+                             "PEM or do not match)"));
   }
   server->port_ = port;
   server->address_ =

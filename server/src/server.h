@@ -28,6 +28,10 @@ struct ServerOptions {
   bool reflection = true;            // register the server reflection service
   int worker_threads = 0;            // real-time pool threads; 0: the hardware's concurrency
   std::string replay_dir;            // where StartRecording writes; empty: recording is off
+  // TLS: PEM text of the certificate chain and its private key. When set, the server serves
+  // TLS only; both or neither.
+  std::string tls_cert_pem;
+  std::string tls_key_pem;
 };
 
 class Server {

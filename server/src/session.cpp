@@ -7,6 +7,7 @@
 #include "edit_convert.h"
 #include "scene_convert.h"
 #include "snapshot_convert.h"
+#include "stats.h"
 
 namespace fulcrum::server {
 
@@ -149,6 +150,7 @@ Status Session::step(uint32_t ticks, std::optional<int64_t> expected_tick, bool 
     const auto start = std::chrono::steady_clock::now();
     for (uint32_t i = 0; i < ticks; ++i) tick_locked();
     const auto end = std::chrono::steady_clock::now();
+    counters().add_steps(ticks, end - start);
     reply->set_tick(world_.tick());
     reply->set_state_hash(world_.state_hash());
     refresh_summary_locked(reply->state_hash());
@@ -196,6 +198,8 @@ Status Session::restore(const WorldSnapshot& records, v1::RestoreSnapshotReply* 
     }
     FULCRUM_RETURN_IF_ERROR(world_.restore(records).with_prefix("snapshot: "));
     ++epoch_;
+    ++counters().worlds_restored;
+    log_event("world_restored", {{"world", id_}, {"tick", world_.tick()}});
     reply->set_world_id(id_);
     reply->set_tick(world_.tick());
     reply->set_state_hash(world_.state_hash());
@@ -332,7 +336,7 @@ void Session::publish_tick_locked() {
   }
   if (due.empty()) return;
   // Captured once per tick, shared by every reader; offer() only swaps a pointer.
-  std::shared_ptr<const PublishedFrame> frame = capture_frame(world_, id_, epoch_);
+  std::shared_ptr<const PublishedFrame> frame = capture_frame(world_, id_, epoch_, ++frame_seq_);
   for (auto& s : due) s->offer(frame);
 }
 
@@ -348,7 +352,7 @@ void Session::publish_all_locked() {
     }
   }
   if (all.empty()) return;
-  std::shared_ptr<const PublishedFrame> frame = capture_frame(world_, id_, epoch_);
+  std::shared_ptr<const PublishedFrame> frame = capture_frame(world_, id_, epoch_, ++frame_seq_);
   for (auto& s : all) s->offer(frame);
 }
 
@@ -371,7 +375,7 @@ void Session::deliver_first_frames() {
     }
   }
   if (waiting.empty()) return;
-  std::shared_ptr<const PublishedFrame> frame = capture_frame(world_, id_, epoch_);
+  std::shared_ptr<const PublishedFrame> frame = capture_frame(world_, id_, epoch_, ++frame_seq_);
   for (auto& s : waiting) s->offer(frame);
 }
 
@@ -389,6 +393,10 @@ Result<std::shared_ptr<Session>> Registry::create(std::string name, World world)
                               " worlds; delete one first");
   }
   const uint64_t id = next_id_++;
+  const int bodies = world.body_count();
+  const int64_t tick = world.tick();
+  log_event("world_created", {{"world", id}, {"name", name}, {"bodies", bodies}, {"tick", tick}});
+  ++counters().worlds_created;
   auto session = std::make_shared<Session>(id, std::move(name), std::move(world), limits_);
   worlds_.emplace(id, session);
   return session;
@@ -415,6 +423,8 @@ Status Registry::remove(uint64_t id) {
   session->retire();
   if (pool_ != nullptr) pool_->stop(session.get());
   session->close_recording();
+  log_event("world_deleted", {{"world", id}});
+  ++counters().worlds_deleted;
   session->close_streams(not_found("world " + std::to_string(id) + " was deleted"), false);
   return {};
 }

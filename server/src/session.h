@@ -29,6 +29,9 @@ struct Limits {
   int max_bodies = 100000;            // live bodies per world
   uint32_t max_step_ticks = 1000000;  // ticks per Step call
   size_t max_edits = 100000;          // edits per batch
+  // A stream reader whose frame has been in flight (not taken by its connection) for longer
+  // than this when a newer frame is published is ended with RESOURCE_EXHAUSTED.
+  int64_t max_reader_stall_ms = 10000;
 };
 
 // A reader of frames (the StreamFrames reactor). offer() must not block: it is called by the
@@ -137,9 +140,11 @@ class Session : public std::enable_shared_from_this<Session> {
   const std::string name_;
   const Limits limits_;
 
-  std::mutex mu_;  // guards world_, epoch_, clock_ and the recording; held for a whole Step
+  std::mutex mu_;  // guards world_, epoch_, frame_seq_, clock_ and the recording; held for a
+                   // whole Step
   World world_;
   uint64_t epoch_ = 0;
+  uint64_t frame_seq_ = 0;  // the last PublishedFrame::seq issued
   RealTimeClock clock_;
   bool retired_ = false;                // deleted from the registry
   std::unique_ptr<Recorder> recorder_;  // open recording, or null

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The real fulcrum-server binary on an ephemeral loopback port, driven by the fulcrum CLI:
 # create, step (hash equal to a local `fulcrum sim`), errors with the server's message and exit
-# code 1, a token file, and SIGTERM while a watch stream is open (server exits 0, the watcher
-# is told the server is stopping).
+# code 1, a token file, `fulcrum stats` and the refused-request log, SIGTERM while a watch
+# stream is open (server exits 0, the watcher is told the server is stopping), and TLS.
 # usage: cli_server_test.sh BIN_DIR SCENES_DIR WORK_DIR
 set -euo pipefail
 BIN="$1"
@@ -94,6 +94,11 @@ start_server token --token-file "$WORK/token"
 if "$F" worlds --server "$ADDR" 2>"$WORK/err.txt"; then fail "no token accepted"; fi
 grep -q "UNAUTHENTICATED" "$WORK/err.txt" || fail "no token: $(cat "$WORK/err.txt")"
 "$F" worlds --server "$ADDR" --token-file "$WORK/token" >/dev/null || fail "token refused"
+# The counters, through `fulcrum stats`: the refused `worlds` call above is counted.
+"$F" stats --server "$ADDR" --token-file "$WORK/token" >"$WORK/stats.txt" || fail "stats failed"
+grep -q "^refused.UNAUTHENTICATED *1$" "$WORK/stats.txt" || fail "stats: $(cat "$WORK/stats.txt")"
+grep -q "event=refused rpc=ListWorlds code=UNAUTHENTICATED field=authorization" "$WORK/token.err" ||
+  fail "no refused log line: $(cat "$WORK/token.err")"
 stop_server
 
 # Real time and a replay recorded on the server: run, step refused while running, pause (the
@@ -131,4 +136,26 @@ grep -q "no replay nothing.replay" "$WORK/err.txt" || fail "unknown: $(cat "$WOR
 stop_server
 out="$("$F" replay verify "$WORK/replays/world1-2.replay")" || fail "after SIGTERM: $out"
 [[ "$out" == *"7 ticks match"* ]] || fail "after SIGTERM: $out"
+# TLS: a missing certificate file is named; a self-signed certificate made here serves TLS
+# only: the CLI with --tls-ca passes, without it (plaintext) it fails.
+if "$BIN/fulcrum-server" --listen 127.0.0.1:0 --tls-cert "$WORK/none.pem" --tls-key "$WORK/none.pem" \
+  2>"$WORK/err.txt"; then
+  fail "a missing certificate was accepted"
+fi
+grep -q -- "--tls-cert: cannot read $WORK/none.pem" "$WORK/err.txt" || fail "tls: $(cat "$WORK/err.txt")"
+if command -v openssl >/dev/null; then
+  openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -days 2 \
+    -subj /CN=localhost -addext subjectAltName=DNS:localhost,IP:127.0.0.1 \
+    -keyout "$WORK/key.pem" -out "$WORK/cert.pem" >/dev/null 2>&1 || fail "openssl failed"
+  start_server tls --tls-cert "$WORK/cert.pem" --tls-key "$WORK/key.pem"
+  "$F" worlds --server "$ADDR" --tls-ca "$WORK/cert.pem" >/dev/null || fail "TLS client refused"
+  "$F" worlds --server "localhost:${ADDR##*:}" --tls-ca "$WORK/cert.pem" --tls-name localhost \
+    >/dev/null || fail "TLS client with --tls-name refused"
+  if "$F" worlds --server "$ADDR" --deadline-ms 3000 2>"$WORK/err.txt"; then
+    fail "a plaintext client reached a TLS server"
+  fi
+  stop_server
+else
+  echo "openssl is not installed (tools/setup.sh installs it): TLS part skipped"
+fi
 echo "OK"

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <future>
 #include <limits>
@@ -522,6 +523,372 @@ TEST_F(ServerTest, ShutdownEndsStreams) {
   Status end = (*sub)->wait();
   EXPECT_NE(end.message().find("UNAVAILABLE"), std::string::npos) << end.message();
   EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(2));
+}
+
+// A self-signed certificate for localhost and 127.0.0.1, made with openssl (tools/setup.sh
+// installs it) in a fresh directory; returns the directory, or empty when openssl failed.
+std::string make_certificate(const std::string& name) {
+  const std::string dir = ::testing::TempDir() + "fulcrum_tls_" + name;
+  const std::string command =
+      "mkdir -p " + dir +
+      " && openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 "
+      "-nodes -days 2 -subj /CN=localhost -addext subjectAltName=DNS:localhost,IP:127.0.0.1 "
+      "-keyout " +
+      dir + "/key.pem -out " + dir + "/cert.pem >/dev/null 2>&1";
+  return std::system(command.c_str()) == 0 ? dir : std::string();
+}
+
+TEST_F(ServerTest, TlsServesOnlyClientsThatTrustItsCertificate) {
+  const std::string dir = make_certificate("server");
+  const std::string other = make_certificate("other");
+  ASSERT_FALSE(dir.empty()) << "openssl could not make a certificate";
+  ASSERT_FALSE(other.empty());
+  ServerOptions options;
+  options.tls_cert_pem = read_text(dir + "/cert.pem");
+  options.tls_key_pem = read_text(dir + "/key.pem");
+  start(options);
+
+  client::ClientOptions tls;
+  tls.address = server_->address();
+  tls.tls = true;
+  tls.tls_ca_pem = options.tls_cert_pem;
+  tls.deadline = std::chrono::milliseconds(10000);
+  auto trusted = client::Client::connect(tls);
+  Result<client::WorldSummary> w = trusted->create_world_json(pyramid_json());
+  ASSERT_TRUE(w.ok()) << w.status().message();
+  ASSERT_TRUE(trusted->step(w->id, 3).ok());
+
+  // The target name override: the certificate names localhost, the address is an IP.
+  client::ClientOptions named = tls;
+  named.tls_target_name = "localhost";
+  EXPECT_TRUE(client::Client::connect(named)->list_worlds().ok());
+
+  // A plaintext client and a client that trusts another certificate are both refused.
+  client::ClientOptions plain;
+  plain.address = server_->address();
+  plain.deadline = std::chrono::milliseconds(3000);
+  Result<std::vector<client::WorldSummary>> refused = client::Client::connect(plain)->list_worlds();
+  EXPECT_FALSE(refused.ok());
+  client::ClientOptions wrong_ca = tls;
+  wrong_ca.tls_ca_pem = read_text(other + "/cert.pem");
+  wrong_ca.deadline = std::chrono::milliseconds(3000);
+  Result<std::vector<client::WorldSummary>> untrusted =
+      client::Client::connect(wrong_ca)->list_worlds();
+  EXPECT_FALSE(untrusted.ok());
+  EXPECT_NE(untrusted.status().message().find("UNAVAILABLE"), std::string::npos)
+      << untrusted.status().message();
+
+  // A key without its certificate is refused before listening.
+  ServerOptions half;
+  half.listen = "127.0.0.1:0";
+  half.tls_key_pem = options.tls_key_pem;
+  auto bad = Server::start(half);
+  EXPECT_EQ(bad.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(bad.status().message().find("tls_cert"), std::string::npos);
+  std::filesystem::remove_all(dir);
+  std::filesystem::remove_all(other);
+}
+
+// Lists services through reflection with the given token ("" for none): the status and the
+// reply bytes.
+std::pair<grpc::Status, std::string> list_services(const std::shared_ptr<grpc::Channel>& channel,
+                                                   const std::string& token) {
+  class Lister : public grpc::ClientBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer> {
+   public:
+    void start() {
+      StartWrite(&request_, grpc::WriteOptions().set_last_message());
+      StartRead(&response_);
+      StartCall();
+    }
+    void OnReadDone(bool ok) override {
+      if (!ok) return;
+      std::vector<grpc::Slice> slices;
+      if (response_.Dump(&slices).ok()) {
+        for (const auto& s : slices)
+          text_.append(reinterpret_cast<const char*>(s.begin()), s.size());
+      }
+      StartRead(&response_);
+    }
+    void OnDone(const grpc::Status& status) override { done_.set_value(status); }
+    grpc::Slice slice_{std::string("\x3a\x00", 2)};
+    grpc::ByteBuffer request_{&slice_, 1};
+    grpc::ByteBuffer response_;
+    std::string text_;
+    std::promise<grpc::Status> done_;
+  } lister;
+  grpc::GenericStub generic(channel);
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+  if (!token.empty()) context.AddMetadata("authorization", "Bearer " + token);
+  generic.PrepareBidiStreamingCall(&context,
+                                   "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo",
+                                   grpc::StubOptions(), &lister);
+  lister.start();
+  grpc::Status status = lister.done_.get_future().get();
+  return {status, lister.text_};
+}
+
+TEST_F(ServerTest, ReflectionNeedsTheTokenWhenOneIsSet) {
+  ServerOptions options;
+  options.token = "s3cret";
+  start(options);
+  for (const std::string token : {"", "guess"}) {
+    auto [status, text] = list_services(channel_, token);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAUTHENTICATED) << "token '" << token << "'";
+    EXPECT_EQ(text.find("fulcrum.v1.Physics"), std::string::npos) << "the service list leaked";
+  }
+  auto [status, text] = list_services(channel_, "s3cret");
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_NE(text.find("fulcrum.v1.Physics"), std::string::npos);
+}
+
+TEST_F(ServerTest, CountersFollowWhatTheServerDid) {
+  start();
+  Result<v1::ServerStats> before = client_->get_stats();
+  ASSERT_TRUE(before.ok()) << before.status().message();
+  auto refused = [](const v1::ServerStats& s, const std::string& code) {
+    for (const v1::CodeCount& c : s.refused()) {
+      if (c.code() == code) return c.count();
+    }
+    return uint64_t{0};
+  };
+  const uint64_t id = create_pyramid();
+  std::atomic<int> frames{0};
+  auto sub = client_->subscribe(id, {}, [&](const client::Frame&) { ++frames; });
+  ASSERT_TRUE(sub.ok());
+  ASSERT_TRUE(client_->step(id, 30).ok());
+  EXPECT_EQ(client_->step(id, 0).status().code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(client_->step(999, 1).status().code(), StatusCode::kNotFound);
+  Result<client::SnapshotResult> snap = client_->get_snapshot(id);
+  ASSERT_TRUE(snap.ok());
+  ASSERT_TRUE(client_->restore(id, snap->bytes).ok());
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (frames.load() == 0) {
+    ASSERT_LT(std::chrono::steady_clock::now(), deadline);
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  (*sub)->cancel();
+  (void)(*sub)->wait();
+  ASSERT_TRUE(client_->delete_world(id).ok());
+
+  Result<v1::ServerStats> after = client_->get_stats();
+  ASSERT_TRUE(after.ok());
+  EXPECT_EQ(after->worlds_created() - before->worlds_created(), 1u);
+  EXPECT_EQ(after->worlds_deleted() - before->worlds_deleted(), 1u);
+  EXPECT_EQ(after->worlds_restored() - before->worlds_restored(), 1u);
+  EXPECT_EQ(after->ticks_stepped() - before->ticks_stepped(), 30u);
+  EXPECT_GT(after->step_ms_total(), before->step_ms_total());
+  EXPECT_GT(after->step_ms_max(), 0.0);
+  EXPECT_EQ(after->streams_opened() - before->streams_opened(), 1u);
+  EXPECT_GE(after->frames_sent() - before->frames_sent(), static_cast<uint64_t>(frames.load()));
+  EXPECT_GE(after->frames_encoded(), 1u);
+  EXPECT_EQ(refused(*after, "INVALID_ARGUMENT") - refused(*before, "INVALID_ARGUMENT"), 1u);
+  EXPECT_EQ(refused(*after, "NOT_FOUND") - refused(*before, "NOT_FOUND"), 1u);
+  EXPECT_EQ(after->worlds(), 0u);
+}
+
+// Quantized frames over the wire rebuild the world within the stated bounds (frames.proto):
+// position 1/8192 m, angle pi/65536 rad, velocities 1/2048 m/s, plus nothing else.
+TEST_F(ServerTest, QuantizedFramesRebuildTheWorldWithinTheBounds) {
+  start();
+  const uint64_t id = create_pyramid();
+  std::mutex mu;
+  std::map<int32_t, client::BodyFrame> bodies;
+  int64_t last_tick = -1;
+  uint64_t last_hash = 0;
+  client::SubscribeOptions options;
+  options.bodies = client::FrameBodies::kChanged;
+  options.quantized = true;
+  auto sub = client_->subscribe(id, options, [&](const client::Frame& f) {
+    std::lock_guard<std::mutex> lock(mu);
+    if (f.full) bodies.clear();
+    for (const BodyId& gone : f.destroyed) bodies.erase(gone.index);
+    for (const client::BodyFrame& b : f.bodies) bodies[b.id.index] = b;
+    last_tick = f.tick;
+    last_hash = f.state_hash;
+  });
+  ASSERT_TRUE(sub.ok());
+  for (int i = 0; i < 12; ++i) ASSERT_TRUE(client_->step(id, 5).ok());
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (true) {
+    {
+      std::lock_guard<std::mutex> lock(mu);
+      if (last_tick == 60) break;
+    }
+    ASSERT_LT(std::chrono::steady_clock::now(), deadline);
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  (*sub)->cancel();
+  std::lock_guard<std::mutex> lock(mu);
+  EXPECT_EQ(last_hash, local_pyramid_hashes(60)[60]);  // the exact hash
+  Result<SceneDef> scene = parse_scene_json(pyramid_json());
+  Result<World> local = build_world(*scene);
+  for (int t = 0; t < 60; ++t) local->step();
+  ASSERT_EQ(bodies.size(), static_cast<size_t>(local->body_count()));
+  int quantized = 0;
+  for (BodyId id_local : local->bodies()) {
+    const BodyState s = *local->body_state(id_local);
+    const client::BodyFrame& b = bodies.at(id_local.index);
+    quantized += b.quantized ? 1 : 0;
+    EXPECT_LE(std::abs(b.position.x() - s.transform.p.x()), 1.0 / 8192);
+    EXPECT_LE(std::abs(b.position.y() - s.transform.p.y()), 1.0 / 8192);
+    EXPECT_LE(std::abs(std::remainder(b.angle - s.transform.q.angle(), 2 * M_PI)),
+              M_PI / 65536 + 1e-15);
+    EXPECT_LE(std::abs(b.linear_velocity.x() - s.linear_velocity.x()), 1.0 / 2048);
+    EXPECT_LE(std::abs(b.linear_velocity.y() - s.linear_velocity.y()), 1.0 / 2048);
+    EXPECT_LE(std::abs(b.angular_velocity - s.angular_velocity), 1.0 / 2048);
+    EXPECT_EQ(b.awake, s.awake);
+  }
+  EXPECT_EQ(quantized, local->body_count());  // the pyramid is well inside the ranges
+}
+
+// The malformed values RefusedRequestsLeaveTheWorldUnchanged does not cover, on every RPC:
+// infinities, negative densities, oversized batches, unknown world ids, a snapshot of another
+// version, a bad query. Each gets its code and a message naming the field; the hash stays.
+TEST_F(ServerTest, MalformedValuesOnEveryRpcAreRefusedByField) {
+  ServerOptions options;
+  options.limits.max_edits = 50;
+  start(options);
+  const uint64_t id = create_pyramid();
+  ASSERT_TRUE(client_->step(id, 5).ok());
+  const uint64_t hash = info(id).state_hash();
+  const double inf = std::numeric_limits<double>::infinity();
+  auto expect = [&](grpc::Status st, grpc::StatusCode code, const std::string& field) {
+    EXPECT_EQ(st.error_code(), code) << st.error_message();
+    EXPECT_NE(st.error_message().find(field), std::string::npos)
+        << "'" << st.error_message() << "' does not name " << field;
+    EXPECT_EQ(info(id).state_hash(), hash) << field;
+  };
+  auto body_edit = [](double density, double x) {
+    v1::Edit e;
+    v1::Body* b = e.mutable_create_body();
+    b->set_type(v1::BODY_TYPE_DYNAMIC);
+    b->mutable_position()->set_x(x);
+    v1::Shape* shape = b->add_shapes();
+    shape->mutable_circle()->set_radius(0.5);
+    shape->set_density(density);
+    return e;
+  };
+  {  // An infinite velocity, a negative density, an infinite position.
+    v1::EditBatch batch;
+    *batch.add_edits() = set_velocity(5, 1, -inf, 0.0);
+    expect(apply(id, batch), grpc::StatusCode::INVALID_ARGUMENT, "batch.edits[0].set_velocity");
+    v1::EditBatch negative;
+    *negative.add_edits() = body_edit(1.0, 0.0);
+    *negative.add_edits() = body_edit(-2.0, 0.0);
+    expect(apply(id, negative), grpc::StatusCode::INVALID_ARGUMENT, "density");
+    v1::EditBatch far;
+    *far.add_edits() = body_edit(1.0, inf);
+    expect(apply(id, far), grpc::StatusCode::INVALID_ARGUMENT, "batch.edits[0].create_body");
+  }
+  {  // More edits than --max-edits.
+    v1::EditBatch big;
+    for (int i = 0; i < 51; ++i) *big.add_edits() = set_velocity(5, 1, 1.0, 0.0);
+    expect(apply(id, big), grpc::StatusCode::RESOURCE_EXHAUSTED, "batch.edits");
+  }
+  {  // A scene with a negative density or a NaN gravity creates no world.
+    v1::CreateWorldRequest request;
+    v1::Body* b = request.mutable_scene()->add_bodies();
+    b->set_type(v1::BODY_TYPE_DYNAMIC);
+    v1::Shape* shape = b->add_shapes();
+    shape->mutable_circle()->set_radius(1.0);
+    shape->set_density(-1.0);
+    v1::CreateWorldReply reply;
+    auto c = context();
+    expect(stub_->CreateWorld(c.get(), request, &reply), grpc::StatusCode::INVALID_ARGUMENT,
+           "scene.bodies[0].shapes[0].density");
+    shape->set_density(1.0);
+    request.mutable_scene()->mutable_settings()->mutable_gravity()->set_y(
+        std::numeric_limits<double>::quiet_NaN());
+    auto c2 = context();
+    expect(stub_->CreateWorld(c2.get(), request, &reply), grpc::StatusCode::INVALID_ARGUMENT,
+           "scene.settings.gravity");
+    auto c3 = context();
+    expect(stub_->CreateWorld(c3.get(), v1::CreateWorldRequest(), &reply),
+           grpc::StatusCode::INVALID_ARGUMENT, "scene");
+    EXPECT_EQ(client_->list_worlds()->size(), 1u);
+  }
+  {  // Unknown world ids on every RPC that takes one.
+    const uint64_t unknown = 4242;
+    v1::WorldInfo world_info;
+    v1::GetWorldRequest get;
+    get.set_world_id(unknown);
+    auto c1 = context();
+    expect(stub_->GetWorld(c1.get(), get, &world_info), grpc::StatusCode::NOT_FOUND, "world_id");
+    v1::DeleteWorldRequest del;
+    del.set_world_id(unknown);
+    v1::DeleteWorldReply del_reply;
+    auto c2 = context();
+    expect(stub_->DeleteWorld(c2.get(), del, &del_reply), grpc::StatusCode::NOT_FOUND, "world_id");
+    v1::StepRequest step;
+    step.set_world_id(unknown);
+    step.set_ticks(1);
+    v1::StepReply step_reply;
+    auto c3 = context();
+    expect(stub_->Step(c3.get(), step, &step_reply), grpc::StatusCode::NOT_FOUND, "world_id");
+    v1::GetSnapshotRequest snap;
+    snap.set_world_id(unknown);
+    v1::GetSnapshotReply snap_reply;
+    auto c4 = context();
+    expect(stub_->GetSnapshot(c4.get(), snap, &snap_reply), grpc::StatusCode::NOT_FOUND,
+           "world_id");
+    v1::QueryRequest query;
+    query.set_world_id(unknown);
+    query.mutable_point()->mutable_point()->set_x(0);
+    v1::QueryReply query_reply;
+    auto c5 = context();
+    expect(stub_->Query(c5.get(), query, &query_reply), grpc::StatusCode::NOT_FOUND, "world_id");
+    auto sub = client_->subscribe(unknown, {}, [](const client::Frame&) {});
+    ASSERT_TRUE(sub.ok());
+    Status end = (*sub)->wait();
+    EXPECT_EQ(end.code(), StatusCode::kNotFound);
+    EXPECT_NE(end.message().find("world_id"), std::string::npos) << end.message();
+  }
+  {  // A snapshot of another format version, into the world and as a fork.
+    Result<client::SnapshotResult> snap = client_->get_snapshot(id);
+    ASSERT_TRUE(snap.ok());
+    v1::RestoreSnapshotRequest request;
+    ASSERT_TRUE(request.mutable_snapshot()->ParseFromString(snap->bytes));
+    request.mutable_snapshot()->set_version(request.snapshot().version() + 1);
+    v1::RestoreSnapshotReply reply;
+    for (uint64_t target : {id, uint64_t{0}}) {
+      request.set_world_id(target);
+      auto c = context();
+      expect(stub_->RestoreSnapshot(c.get(), request, &reply),
+             grpc::StatusCode::FAILED_PRECONDITION, "snapshot");
+    }
+    request.set_world_id(4242);
+    auto c = context();
+    expect(stub_->RestoreSnapshot(c.get(), request, &reply), grpc::StatusCode::NOT_FOUND,
+           "world_id");
+    EXPECT_EQ(client_->list_worlds()->size(), 1u);
+  }
+  {  // Queries: an infinite ray, an inverted box, no kind.
+    v1::QueryRequest query;
+    query.set_world_id(id);
+    query.mutable_ray_cast()->mutable_origin()->set_x(inf);
+    query.mutable_ray_cast()->mutable_translation()->set_y(-1);
+    v1::QueryReply reply;
+    auto c1 = context();
+    expect(stub_->Query(c1.get(), query, &reply), grpc::StatusCode::INVALID_ARGUMENT,
+           "ray_cast.origin");
+    query.mutable_aabb()->mutable_lower()->set_x(1);
+    auto c2 = context();
+    expect(stub_->Query(c2.get(), query, &reply), grpc::StatusCode::INVALID_ARGUMENT, "aabb.upper");
+    query.clear_aabb();
+    auto c3 = context();
+    expect(stub_->Query(c3.get(), query, &reply), grpc::StatusCode::INVALID_ARGUMENT, "kind");
+  }
+  {  // A stream with an unknown FrameBodies value.
+    v1::StreamFramesRequest request;
+    request.set_world_id(id);
+    request.set_bodies(static_cast<v1::FrameBodies>(7));
+    auto c = context();
+    auto reader = stub_->StreamFrames(c.get(), request);
+    v1::Frame frame;
+    EXPECT_FALSE(reader->Read(&frame));
+    expect(reader->Finish(), grpc::StatusCode::INVALID_ARGUMENT, "bodies");
+  }
 }
 
 }  // namespace

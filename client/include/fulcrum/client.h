@@ -16,6 +16,7 @@
 #include "fulcrum/scene.h"
 #include "fulcrum/status.h"
 #include "fulcrum/v1/edit.pb.h"
+#include "fulcrum/v1/stats.pb.h"
 #include "fulcrum/world.h"
 
 namespace fulcrum::client {
@@ -24,6 +25,12 @@ struct ClientOptions {
   std::string address = "127.0.0.1:50051";    // HOST:PORT
   std::string token;                          // bearer token; empty: none sent
   std::chrono::milliseconds deadline{30000};  // per unary call
+  // TLS (a server started with --tls-cert). tls_ca_pem: PEM root certificate(s) that signed the
+  // server's certificate; empty: the system's roots. tls_target_name: the name to check the
+  // certificate against instead of the host in `address` (e.g. "localhost").
+  bool tls = false;
+  std::string tls_ca_pem;
+  std::string tls_target_name;
 };
 
 // Server errors keep their code where the engine's StatusCode has it; others (UNAUTHENTICATED,
@@ -123,6 +130,9 @@ struct BodyFrame {
   Vec2 linear_velocity = Vec2::Zero();
   double angular_velocity = 0.0;
   bool awake = false;
+  // Decoded from a quantized frame: within frames.proto's bounds of the exact state (position
+  // 1/8192 m, angle pi/65536 rad, velocities 1/2048 m/s and rad/s). False: exact.
+  bool quantized = false;
 };
 
 struct Frame {
@@ -144,6 +154,7 @@ enum class FrameBodies { kAll, kChanged, kNone };
 struct SubscribeOptions {
   uint32_t every_ticks = 1;
   FrameBodies bodies = FrameBodies::kChanged;
+  bool quantized = false;  // fixed-point body states (frames.proto, QuantizedBodyFrame)
 };
 
 // An open StreamFrames call. The callback runs on the subscription's own thread, one frame at
@@ -230,6 +241,9 @@ class Client {
   virtual Result<DownloadResult> download_replay(
       uint64_t world, std::string_view name,
       const std::function<Status(std::string_view chunk)>& sink) = 0;
+
+  // The server's counters (stats.proto).
+  virtual Result<v1::ServerStats> get_stats() = 0;
 };
 
 }  // namespace fulcrum::client
