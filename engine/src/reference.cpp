@@ -243,7 +243,8 @@ Status build_problem(const WorldImpl& w, Problem* p, ReferenceSolution* out) {
 
 class Solver {
  public:
-  explicit Solver(const Problem& p) : p_(p), lambda_(p.rows.size(), 0.0), v_(p.v0) {}
+  Solver(const Problem& p, double tolerance)
+      : p_(p), tolerance_(tolerance), lambda_(p.rows.size(), 0.0), v_(p.v0) {}
 
   const std::vector<SolverBody>& velocities() const { return v_; }
   const std::vector<double>& impulses() const { return lambda_; }
@@ -296,67 +297,79 @@ class Solver {
     return worst;
   }
 
-  // Solves the free rows exactly with the others held at the bounds they press, friction
-  // rows at their bound following their normal impulse (lambda_t = +-mu lambda_n, a slipping
-  // point); projects the result onto the bounds. Returns the residual of the result; keeps it
-  // if `keep_if_better` is false or it beats `current`.
+  // Active-set polishing. Each row is free (its equation J v + bias = 0 holds), held at a
+  // bound, or, for friction at its bound, slipping (lambda_t = +-mu lambda_n, following its
+  // normal row). Starting from the set the iterate presses, the free rows are solved exactly
+  // given the others; rows whose solution leaves its bounds are then held at the bound they
+  // crossed, held rows the velocities would pull inside are freed, and the solve repeats until
+  // the set stops changing (block principal pivoting, Judice and Pires 1994), at most
+  // kPivots times. The result is projected onto the bounds. Returns its residual; keeps it if
+  // `keep_if_better` is false or it beats `current`.
   double polish(double current, bool keep_if_better) {
+    constexpr int kPivots = 8;
     const size_t n = p_.rows.size();
     std::vector<double> lam = lambda_;
-    std::vector<int> free_index(n, -1);
-    std::vector<int> free_rows;
-    std::vector<double> slip(n, 0.0);  // friction at a bound: +-1
-    for (size_t i = 0; i < n; ++i) {
-      const RefRow& r = p_.rows[i];
-      double lo, hi;
-      bounds(i, lambda_, &lo, &hi);
-      double w = row_velocity(r.j, v_[r.a], v_[r.b]) + r.bias;
-      double trial = lambda_[i] - r.mass * w;
-      if (trial > lo && trial < hi) {
-        free_index[i] = static_cast<int>(free_rows.size());
-        free_rows.push_back(static_cast<int>(i));
-        lam[i] = 0.0;
-      } else {
-        lam[i] = trial <= lo ? lo : hi;
-        if (r.normal >= 0 && hi > 0.0) slip[i] = trial <= lo ? -1.0 : 1.0;
-      }
-    }
-    // A slipping friction row whose normal row is free moves with it; otherwise it is held.
-    for (size_t i = 0; i < n; ++i) {
-      if (slip[i] == 0.0) continue;
-      if (free_index[p_.rows[i].normal] >= 0) {
-        lam[i] = 0.0;
-      } else {
-        slip[i] = 0.0;
-      }
-    }
-    if (!free_rows.empty()) {
-      std::vector<SolverBody> v;
+    std::vector<SolverBody> v = v_;
+    std::vector<int> state(n, kFree);  // kFree, kHeld or kSlip
+    std::vector<double> held(n, 0.0), slip(n, 0.0);
+    // The set the iterate presses.
+    for (size_t i = 0; i < n; ++i) classify(i, lam, v, &state, &held, &slip);
+    // The projected result of each pivot; the best one is kept.
+    std::vector<double> best_lam;
+    std::vector<SolverBody> best_v;
+    double best = std::numeric_limits<double>::infinity();
+    for (int pivot = 0; pivot < kPivots; ++pivot) {
+      solve_set(state, held, slip, &lam);
       refresh(lam, &v);
-      const int m = static_cast<int>(free_rows.size());
-      Eigen::VectorXd rhs(m);
-      for (int k = 0; k < m; ++k) {
-        const RefRow& r = p_.rows[free_rows[k]];
-        rhs[k] = -(row_velocity(r.j, v[r.a], v[r.b]) + r.bias);
+      ++direct_solves;
+      std::vector<double> projected = lam;
+      for (int pass = 0; pass < 2; ++pass) {  // bounded rows, then friction against them
+        for (size_t i = 0; i < n; ++i) {
+          if ((p_.rows[i].normal >= 0) != (pass == 1)) continue;
+          double lo, hi;
+          bounds(i, projected, &lo, &hi);
+          projected[i] = std::clamp(projected[i], lo, hi);
+        }
       }
-      Eigen::VectorXd x = solve_free(free_index, free_rows, slip, rhs);
-      for (int k = 0; k < m; ++k) lam[free_rows[k]] = x[k];
-      for (size_t i = 0; i < n; ++i) {
-        if (slip[i] != 0.0) lam[i] = slip[i] * p_.rows[i].mu * lam[p_.rows[i].normal];
+      std::vector<SolverBody> pv;
+      double res = refresh(projected, &pv);
+      if (res < best) {
+        best = res;
+        best_lam = std::move(projected);
+        best_v = std::move(pv);
       }
-    }
-    ++direct_solves;
-    // Project: bounded rows first, then friction against the new normal impulses.
-    for (int pass = 0; pass < 2; ++pass) {
+      bool changed = false;
       for (size_t i = 0; i < n; ++i) {
-        if ((p_.rows[i].normal >= 0) != (pass == 1)) continue;
+        const RefRow& r = p_.rows[i];
         double lo, hi;
         bounds(i, lam, &lo, &hi);
-        lam[i] = std::clamp(lam[i], lo, hi);
+        if (state[i] == kFree) {
+          // Friction bounds move with the normal impulse: compare with the bounds of the
+          // solution itself.
+          if (lam[i] < lo || lam[i] > hi) {
+            if (r.normal >= 0 && hi > 0.0) {
+              state[i] = kSlip;
+              slip[i] = lam[i] < lo ? -1.0 : 1.0;
+            } else {
+              state[i] = kHeld;
+              held[i] = lam[i] < lo ? lo : hi;
+            }
+            changed = true;
+          }
+        } else {
+          double w = row_velocity(r.j, v[r.a], v[r.b]) + r.bias;
+          double trial = lam[i] - r.mass * w;
+          if (trial > lo && trial < hi) {
+            state[i] = kFree;
+            changed = true;
+          }
+        }
       }
+      if (!changed || best <= tolerance_) break;
     }
-    std::vector<SolverBody> v;
-    double res = refresh(lam, &v);
+    double res = best;
+    lam = std::move(best_lam);
+    v = std::move(best_v);
     if (!keep_if_better || res < current) {
       lambda_ = std::move(lam);
       v_ = std::move(v);
@@ -366,6 +379,64 @@ class Solver {
   }
 
  private:
+  enum { kFree = 0, kHeld = 1, kSlip = 2 };
+
+  // Row i's state from the impulses and velocities: free when the unclamped update lands
+  // strictly inside its bounds, else held at (friction: slipping along) the bound it presses.
+  void classify(size_t i, const std::vector<double>& lam, const std::vector<SolverBody>& v,
+                std::vector<int>* state, std::vector<double>* held,
+                std::vector<double>* slip) const {
+    const RefRow& r = p_.rows[i];
+    double lo, hi;
+    bounds(i, lam, &lo, &hi);
+    double w = row_velocity(r.j, v[r.a], v[r.b]) + r.bias;
+    double trial = lam[i] - r.mass * w;
+    if (trial > lo && trial < hi) {
+      (*state)[i] = kFree;
+    } else if (r.normal >= 0 && hi > 0.0) {
+      (*state)[i] = kSlip;
+      (*slip)[i] = trial <= lo ? -1.0 : 1.0;
+    } else {
+      (*state)[i] = kHeld;
+      (*held)[i] = trial <= lo ? lo : hi;
+    }
+  }
+
+  // The impulses of one active set: held rows at their values, the free rows solved, slipping
+  // rows at +-mu times their normal row (held at 0 when that row is not free).
+  void solve_set(const std::vector<int>& state, const std::vector<double>& held,
+                 const std::vector<double>& slip_in, std::vector<double>* lam) {
+    const size_t n = p_.rows.size();
+    std::vector<int> free_index(n, -1);
+    std::vector<int> free_rows;
+    std::vector<double> slip(n, 0.0);
+    for (size_t i = 0; i < n; ++i) {
+      if (state[i] == kFree) {
+        free_index[i] = static_cast<int>(free_rows.size());
+        free_rows.push_back(static_cast<int>(i));
+      }
+    }
+    for (size_t i = 0; i < n; ++i) {
+      (*lam)[i] = 0.0;
+      if (state[i] == kHeld) (*lam)[i] = held[i];
+      if (state[i] == kSlip && free_index[p_.rows[i].normal] >= 0) slip[i] = slip_in[i];
+    }
+    if (free_rows.empty()) return;
+    std::vector<SolverBody> v;
+    refresh(*lam, &v);
+    const int m = static_cast<int>(free_rows.size());
+    Eigen::VectorXd rhs(m);
+    for (int k = 0; k < m; ++k) {
+      const RefRow& r = p_.rows[free_rows[k]];
+      rhs[k] = -(row_velocity(r.j, v[r.a], v[r.b]) + r.bias);
+    }
+    Eigen::VectorXd x = solve_free(free_index, free_rows, slip, rhs);
+    for (int k = 0; k < m; ++k) (*lam)[free_rows[k]] = x[k];
+    for (size_t i = 0; i < n; ++i) {
+      if (slip[i] != 0.0) (*lam)[i] = slip[i] * p_.rows[i].mu * (*lam)[p_.rows[i].normal];
+    }
+  }
+
   // K x = rhs over the free rows: equation i, unknown k, K_ik = A_ik (A_ij = J_i M^-1 J_j^T
   // summed over the bodies they share), plus s mu A_it for each slipping friction row t bound
   // to normal row k. Symmetric (LDLT) without slipping rows, else LU.
@@ -468,6 +539,7 @@ class Solver {
   }
 
   const Problem& p_;
+  double tolerance_;
   std::vector<double> lambda_;
   std::vector<SolverBody> v_;
 };
@@ -481,23 +553,25 @@ Result<ReferenceSolution> solve_prepared(World& copy, const ReferenceOptions& op
   Problem p;
   FULCRUM_RETURN_IF_ERROR(build_problem(w, &p, &out));
 
-  Solver solver(p);
+  Solver solver(p, opt.tolerance);
   double res = solver.refresh();
   if (!p.bounded) {
     out.method = "sparse LDLT";
     for (int k = 0; k < 3 && res > opt.tolerance; ++k) res = solver.polish(res, false);
   } else {
     out.method = "projected Gauss-Seidel + active-set LDLT";
+    // Sweeps between checks; the polishing is tried at each check and, while it fails to
+    // halve the residual, at checks ever further apart (its factorizations cost far more than
+    // a sweep).
     constexpr int kCheckEvery = 20;
+    int polish_every = 1, checks = 0;
     while (res > opt.tolerance && solver.sweeps < opt.max_iterations) {
       for (int k = 0; k < kCheckEvery && solver.sweeps < opt.max_iterations; ++k) solver.sweep();
       res = solver.refresh();
-      // A few polishing rounds in a row: each fixes the friction bounds of the last.
-      for (int k = 0; k < 4 && res > opt.tolerance; ++k) {
-        double before = res;
-        res = solver.polish(res, true);
-        if (!(res < 0.5 * before)) break;
-      }
+      if (++checks % polish_every != 0) continue;
+      double before = res;
+      res = solver.polish(res, true);
+      polish_every = res < 0.5 * before ? 1 : std::min(2 * polish_every, 1024);
     }
   }
   out.residual = res;
