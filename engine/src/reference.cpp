@@ -15,12 +15,13 @@
 //   bounds is coordinate descent on the convex quadratic 1/2 lambda^T A lambda + b^T lambda
 //   over a box and converges for any positive semidefinite A (Luo and Tseng 1992); the
 //   friction bounds +-mu lambda_n follow the normal impulses as a fixed-point iteration, as in
-//   the step. Every 20 sweeps the active set is read off the iterate (a row is free when the
-//   unclamped update lands strictly inside its bounds, else held at the bound it presses) and
-//   the free rows are solved exactly with sparse LDLT given the held ones; the result is
-//   projected onto the bounds and kept when its residual is lower. Once the iteration has
-//   found the active set this lands on the solution to rounding, where plain Gauss-Seidel
-//   would need a number of sweeps growing with the square of the stack height.
+//   the step. Every 20 sweeps (at doubling intervals while it fails) an active-set polish:
+//   the rows are split into free, held at a bound and slipping (friction at +-mu lambda_n,
+//   coupled to its normal row) as the iterate presses them, the free rows are solved exactly
+//   (sparse LDLT, or sparse LU when slipping rows make the system unsymmetric), and the set is
+//   corrected up to 8 times (block principal pivoting), keeping the best projected result.
+//   Once the active set is found this lands on the solution to rounding, where plain
+//   Gauss-Seidel would need a number of sweeps growing with the square of the stack height.
 // - Singular systems: when a factorization meets a pivot below 1e-12 of the largest, the
 //   system is solved by iterated regularization (proximal point): x += (A + eps I)^-1 (rhs -
 //   A x) with eps = 1e-8 of A's largest diagonal entry, which converges to an exact solution
