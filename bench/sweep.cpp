@@ -43,8 +43,10 @@
 #include <variant>
 #include <vector>
 
+#include "fulcrum/reference.h"
 #include "fulcrum/scene.h"
 #include "fulcrum/scenes.h"
+#include "fulcrum/state.h"
 #include "fulcrum/trig.h"
 #include "fulcrum/world.h"
 #include "svg_plot.h"
@@ -147,12 +149,14 @@ enum Measure {
   kEnergyDrift,      // fraction: energy gain where energy must not rise (see Case::labels)
   kMaxSpeed,         // m/s: largest body speed at any tick (explosions)
   kAnalytic,         // fraction: relative error against the case's closed form
+  kRefVelocity,      // m/s: largest |v - v_ref| over the bodies after one tick (reference.h)
+  kRefAngular,       // rad/s: largest |w - w_ref| over the bodies after the same tick
   kMeasureCount
 };
 const char* const kMeasureCsv[kMeasureCount] = {
-    "max_penetration_m", "mean_penetration_m", "max_displacement_m",  "bodies_out",
-    "max_joint_error_m", "max_stretch",        "max_limit_error_rad", "energy_drift",
-    "max_speed_m_s",     "analytic_error"};
+    "max_penetration_m", "mean_penetration_m", "max_displacement_m",     "bodies_out",
+    "max_joint_error_m", "max_stretch",        "max_limit_error_rad",    "energy_drift",
+    "max_speed_m_s",     "analytic_error",     "ref_velocity_error_m_s", "ref_angular_error_rad_s"};
 
 struct Measures {
   std::array<std::optional<double>, kMeasureCount> value;
@@ -365,6 +369,9 @@ struct Case {
   // Run once whatever --repeats says: the four largest scenes, whose one run already takes
   // seconds per setting (ms per step is then the mean over that run's timed steps).
   bool single_run = false;
+  // The tick at whose start the velocity error against the reference solver is measured (0:
+  // not measured; see reference_error()).
+  int reference_tick = 0;
 };
 
 bool applies(const Case& c, Measure m) {
@@ -912,7 +919,44 @@ std::vector<Case> all_cases() {
       make<TumblerProbe>(), "90 ticks of 750, one run (the boxes land; the drum turns 37 deg)",
       true});
   // clang-format on
+  // The velocity error against the reference solver, where one reference solve is cheap (tens
+  // of milliseconds for most states, about a second at the cap): the small stack, the mass-ratio
+  // pyramid and the 400:1 pair, the heavy chain. At tick 60, after a second of settling.
+  for (Case& c : cases) {
+    if (c.id == 1 || c.id == 4 || c.id == 5 || c.id == 10) {
+      c.reference_tick = 60;
+      c.labels.push_back({kRefVelocity, "velocity error vs reference, tick 60 (m/s)"});
+      c.labels.push_back({kRefAngular, "angular velocity error vs reference, tick 60 (rad/s)"});
+    }
+  }
   return cases;
+}
+
+// The velocity error of the world's own setting over the tick starting now (reference.h): the
+// reference solve of this tick against one step of a copy. Every body is woken on the copy
+// first (a settled island may be asleep, with nothing to solve; waking changes no position,
+// velocity or impulse). Outside the timed steps.
+double g_reference_seconds = 0.0;  // spent in reference_error, reported at the end
+
+void reference_error(const World& world, const std::string& what, Measures* m) {
+  auto start = std::chrono::steady_clock::now();
+  World copy(world.settings());
+  if (fulcrum::Status st = copy.restore(world.snapshot()); !st.ok()) die(st.to_string());
+  for (BodyId id : copy.bodies()) (void)copy.set_awake(id, true);
+  // A cap of 1e5 sweeps (about a second on the 55-box pyramid) keeps the sweep in its time
+  // budget; the few solves that reach it (collapsing piles) are reported on stderr.
+  fulcrum::ReferenceOptions options;
+  options.max_iterations = 100000;
+  auto e = fulcrum::setting_velocity_error(copy, copy.settings(), options);
+  if (!e.ok()) die(what + ": reference: " + e.status().to_string());
+  if (!e->reference.converged) {
+    std::fprintf(stderr, "fulcrum_sweep: %s: the reference stopped at residual %.3g N s\n",
+                 what.c_str(), e->reference.residual);
+  }
+  m->set(kRefVelocity, e->error.max_linear);
+  m->set(kRefAngular, e->error.max_angular);
+  g_reference_seconds +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 // --- Running the grid -------------------------------------------------------------------------
@@ -955,7 +999,12 @@ Row run(const Case& c, const Setting& setting, int repeats, bool smoke) {
     if (measure) probe->begin(ctx);
     double timed = 0.0, max_pen = 0.0, mean_sum = 0.0, speed = 0.0, joint = 0.0;
     int sampled = 0;
+    // The reference tick; a smoke run (20 ticks) takes it at tick 10.
+    const int reference_tick = smoke ? std::min(c.reference_tick, row.ticks / 2) : c.reference_tick;
     for (int t = 0; t < ticks; ++t) {
+      if (measure && reference_tick > 0 && t == reference_tick) {
+        reference_error(b.world, c.name + " " + setting.label(), &row.m);
+      }
       auto t0 = std::chrono::steady_clock::now();
       b.world.step();
       auto t1 = std::chrono::steady_clock::now();
@@ -1040,7 +1089,8 @@ const char* const kCsvHeader =
     "case_id,case,setting,family,substeps,velocity_iterations,relax_iterations,contact_hertz,"
     "split_impulses,ticks,timed_steps,repeats,ms_per_step,max_penetration_m,mean_penetration_m,"
     "max_displacement_m,bodies_out,max_joint_error_m,max_stretch,max_limit_error_rad,"
-    "energy_drift,max_speed_m_s,analytic_error,main_error,pass,pareto,cheapest_pass,failed,"
+    "energy_drift,max_speed_m_s,analytic_error,ref_velocity_error_m_s,ref_angular_error_rad_s,"
+    "main_error,pass,pareto,cheapest_pass,failed,"
     "state_hash";
 
 std::string csv_row(const Row& r) {
@@ -1290,7 +1340,7 @@ int main(int argc, char** argv) {
     }
     write_file(dir / svg_name(c), plot(c, mine));
   }
-  std::printf("fulcrum_sweep: %zu cases x %zu settings in %.1f s -> %s\n", cases.size(),
-              grid.size(), seconds, out_dir.c_str());
+  std::printf("fulcrum_sweep: %zu cases x %zu settings in %.1f s (reference solves %.1f s) -> %s\n",
+              cases.size(), grid.size(), seconds, g_reference_seconds, out_dir.c_str());
   return 0;
 }

@@ -581,4 +581,23 @@ void WorldImpl::solve(const std::vector<int>& awake) {
   finalize_bodies(*this, awake, s);
 }
 
+void WorldImpl::prepare_reference_tick() {
+  events = StepEvents{};
+  ++step_stamp;
+  update_pairs();
+  collide();
+  std::vector<int>& awake = scratch_awake;
+  awake.assign(awake_bodies.begin(), awake_bodies.end());
+  std::sort(awake.begin(), awake.end());
+
+  SolverScratch& s = solver_scratch;
+  const double h = settings.dt;
+  load_bodies(*this, awake, s);
+  gather_contacts(*this, awake, &s.contacts);
+  prepare(*this, s, h);
+  prepare_joints(awake, h);
+  apply_spring_forces(h);
+  integrate_velocities(*this, awake, s, h);
+}
+
 }  // namespace fulcrum

@@ -95,6 +95,12 @@ class WorldImpl {
 
   // --- solver (contact_solver.cpp) ---
   void solve(const std::vector<int>& awake_sorted);
+  // The reference solver's start of a tick (reference.cpp): what World::step does before its
+  // first velocity pass, with one substep of dt: broad phase, collision, the awake set in id
+  // order (scratch_awake), solver bodies with the applied forces integrated, contact and joint
+  // rows prepared (solver_scratch). It changes the world as a step's first stages do, so the
+  // reference calls it on a copy. World::step never calls it.
+  void prepare_reference_tick();
 
   // Scratch reused every step (never part of the state).
   std::vector<int> scratch_contacts;
