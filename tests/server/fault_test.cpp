@@ -27,6 +27,7 @@
 
 #include "fulcrum/client.h"
 #include "fulcrum/v1/service.grpc.pb.h"
+#include "test_support.h"
 
 extern char** environ;
 
@@ -35,27 +36,9 @@ namespace {
 
 using namespace std::chrono_literals;
 
-std::string read_text(const std::string& path) {
-  std::ifstream in(path);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-const std::string& pyramid_json() {
-  static const std::string json = read_text(FULCRUM_SCENES_DIR "/pyramid.json");
-  return json;
-}
-
-// Polls `done` every 10 ms for up to `limit`; true when it became true.
-bool eventually(const std::function<bool()>& done, std::chrono::milliseconds limit = 20s) {
-  const auto deadline = std::chrono::steady_clock::now() + limit;
-  while (!done()) {
-    if (std::chrono::steady_clock::now() > deadline) return false;
-    std::this_thread::sleep_for(10ms);
-  }
-  return true;
-}
+using testing_support::eventually;
+using testing_support::pyramid_json;
+using testing_support::read_text;
 
 pid_t spawn(const std::vector<std::string>& argv, const std::string& out, const std::string& err) {
   posix_spawn_file_actions_t actions;

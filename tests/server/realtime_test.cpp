@@ -20,6 +20,7 @@
 #include "fulcrum/client.h"
 #include "replay.h"
 #include "server.h"
+#include "test_support.h"
 
 namespace fulcrum {
 namespace {
@@ -28,17 +29,7 @@ using Clock = std::chrono::steady_clock;
 using server::Server;
 using server::ServerOptions;
 
-std::string read_text(const std::string& path) {
-  std::ifstream in(path);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-const std::string& pyramid_json() {
-  static const std::string json = read_text(FULCRUM_SCENES_DIR "/pyramid.json");
-  return json;
-}
+using testing_support::pyramid_json;
 
 constexpr double kDt = 1.0 / 60.0;  // pyramid.json's tick
 

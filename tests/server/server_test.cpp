@@ -22,6 +22,7 @@
 #include "fulcrum/v1/service.grpc.pb.h"
 #include "scene_convert.h"
 #include "server.h"
+#include "test_support.h"
 
 namespace fulcrum {
 namespace {
@@ -29,17 +30,9 @@ namespace {
 using server::Server;
 using server::ServerOptions;
 
-std::string read_text(const std::string& path) {
-  std::ifstream in(path);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-const std::string& pyramid_json() {
-  static const std::string json = read_text(FULCRUM_SCENES_DIR "/pyramid.json");
-  return json;
-}
+using testing_support::eventually;
+using testing_support::pyramid_json;
+using testing_support::read_text;
 
 // State hashes of a local pyramid world after each tick: hashes[t] is the hash at tick t.
 const std::vector<uint64_t>& local_pyramid_hashes(int ticks) {
@@ -86,6 +79,41 @@ class ServerTest : public ::testing::Test {
     Result<client::WorldSummary> w = client_->create_world_json(pyramid_json());
     EXPECT_TRUE(w.ok()) << w.status().message();
     return w.ok() ? w->id : 0;
+  }
+
+  // A reader's copy of a world kept from a CHANGED stream: bodies by index as the frames left
+  // them, and the tick and state hash of the last frame.
+  struct Mirror {
+    std::map<int32_t, client::BodyFrame> bodies;
+    int64_t tick = -1;
+    uint64_t hash = 0;
+  };
+  // Follows world `id` through 12 Steps of 5 ticks with a CHANGED stream until the frame of
+  // tick 60 arrives (at most 20 s), then cancels the stream.
+  void mirror_changed_stream(uint64_t id, bool quantized, Mirror* out) {
+    std::mutex mu;
+    Mirror m;
+    client::SubscribeOptions options;
+    options.bodies = client::FrameBodies::kChanged;
+    options.quantized = quantized;
+    auto sub = client_->subscribe(id, options, [&](const client::Frame& f) {
+      std::lock_guard<std::mutex> lock(mu);
+      if (f.full) m.bodies.clear();
+      for (const BodyId& gone : f.destroyed) m.bodies.erase(gone.index);
+      for (const client::BodyFrame& b : f.bodies) m.bodies[b.id.index] = b;
+      m.tick = f.tick;
+      m.hash = f.state_hash;
+    });
+    ASSERT_TRUE(sub.ok());
+    for (int i = 0; i < 12; ++i) ASSERT_TRUE(client_->step(id, 5).ok());
+    const bool reached = eventually([&] {
+      std::lock_guard<std::mutex> lock(mu);
+      return m.tick == 60;
+    });
+    (*sub)->cancel();
+    ASSERT_TRUE(reached) << "the frame of tick 60 never arrived";
+    std::lock_guard<std::mutex> lock(mu);
+    *out = std::move(m);
   }
 
   v1::WorldInfo info(uint64_t world) {
@@ -297,36 +325,13 @@ TEST_F(ServerTest, TenReadersSeeIncreasingTicksAndMatchingHashes) {
 
 TEST_F(ServerTest, ChangedFramesRebuildTheWorld) {
   start();
-  const uint64_t id = create_pyramid();
-  std::mutex mu;
-  std::map<int32_t, client::BodyFrame> bodies;  // the reader's copy, by index
-  int64_t last_tick = -1;
-  client::SubscribeOptions options;
-  options.bodies = client::FrameBodies::kChanged;
-  auto sub = client_->subscribe(id, options, [&](const client::Frame& f) {
-    std::lock_guard<std::mutex> lock(mu);
-    if (f.full) bodies.clear();
-    for (const BodyId& gone : f.destroyed) bodies.erase(gone.index);
-    for (const client::BodyFrame& b : f.bodies) bodies[b.id.index] = b;
-    last_tick = f.tick;
-  });
-  ASSERT_TRUE(sub.ok());
-  for (int i = 0; i < 12; ++i) ASSERT_TRUE(client_->step(id, 5).ok());
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-  while (true) {
-    {
-      std::lock_guard<std::mutex> lock(mu);
-      if (last_tick == 60) break;
-    }
-    ASSERT_LT(std::chrono::steady_clock::now(), deadline);
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  (*sub)->cancel();
+  Mirror mirror;
+  ASSERT_NO_FATAL_FAILURE(mirror_changed_stream(create_pyramid(), false, &mirror));
+  const auto& bodies = mirror.bodies;
 
   Result<SceneDef> scene = parse_scene_json(pyramid_json());
   Result<World> local = build_world(*scene);
   for (int t = 0; t < 60; ++t) local->step();
-  std::lock_guard<std::mutex> lock(mu);
   ASSERT_EQ(bodies.size(), static_cast<size_t>(local->body_count()));
   for (BodyId id_local : local->bodies()) {
     const BodyState s = *local->body_state(id_local);
@@ -691,36 +696,10 @@ TEST_F(ServerTest, CountersFollowWhatTheServerDid) {
 // position 1/8192 m, angle pi/65536 rad, velocities 1/2048 m/s, plus nothing else.
 TEST_F(ServerTest, QuantizedFramesRebuildTheWorldWithinTheBounds) {
   start();
-  const uint64_t id = create_pyramid();
-  std::mutex mu;
-  std::map<int32_t, client::BodyFrame> bodies;
-  int64_t last_tick = -1;
-  uint64_t last_hash = 0;
-  client::SubscribeOptions options;
-  options.bodies = client::FrameBodies::kChanged;
-  options.quantized = true;
-  auto sub = client_->subscribe(id, options, [&](const client::Frame& f) {
-    std::lock_guard<std::mutex> lock(mu);
-    if (f.full) bodies.clear();
-    for (const BodyId& gone : f.destroyed) bodies.erase(gone.index);
-    for (const client::BodyFrame& b : f.bodies) bodies[b.id.index] = b;
-    last_tick = f.tick;
-    last_hash = f.state_hash;
-  });
-  ASSERT_TRUE(sub.ok());
-  for (int i = 0; i < 12; ++i) ASSERT_TRUE(client_->step(id, 5).ok());
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-  while (true) {
-    {
-      std::lock_guard<std::mutex> lock(mu);
-      if (last_tick == 60) break;
-    }
-    ASSERT_LT(std::chrono::steady_clock::now(), deadline);
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  (*sub)->cancel();
-  std::lock_guard<std::mutex> lock(mu);
-  EXPECT_EQ(last_hash, local_pyramid_hashes(60)[60]);  // the exact hash
+  Mirror mirror;
+  ASSERT_NO_FATAL_FAILURE(mirror_changed_stream(create_pyramid(), true, &mirror));
+  const auto& bodies = mirror.bodies;
+  EXPECT_EQ(mirror.hash, local_pyramid_hashes(60)[60]);  // the exact hash
   Result<SceneDef> scene = parse_scene_json(pyramid_json());
   Result<World> local = build_world(*scene);
   for (int t = 0; t < 60; ++t) local->step();
