@@ -59,7 +59,9 @@ constexpr FlagSpec kWatchFlags[] = {
     kTlsCaFlag,
     kTlsNameFlag,
     {"seconds", "S", "stop after S seconds (default: when the stream ends)"},
-    {"every", "K", "a frame every K ticks (default 1; late frames are coalesced)"}};
+    {"every", "K", "a frame every K ticks (default 1; late frames are coalesced)"},
+    {"bodies", "WHICH", "none, changed or all: the body states each frame carries (default none)"},
+    {"quantized", "", "body states in fixed point (implies --bodies changed unless given)"}};
 
 constexpr FlagSpec kRunFlags[] = {
     kServerFlag,
@@ -120,7 +122,13 @@ constexpr Command kCommands[] = {
      "`restore new` forks: a new world continues from the snapshot.", kSnapshotFlags, 2,
      run_snapshot},
     {"watch", "follow a world's frames: one line per second (tick, awake bodies, hash)",
-     "WORLD [--seconds S] [--every K]", "", kWatchFlags, 1, run_watch},
+     "WORLD [--seconds S] [--every K] [--bodies none|changed|all] [--quantized]",
+     "Each line: the newest frame's tick, awake/live bodies and state hash, the frames received\n"
+     "(and coalesced on the server) so far, and the bytes received since the previous line per\n"
+     "second and per frame. `changed` sends a body when its state changed since the previous\n"
+     "frame; --quantized sends it in fixed point (frames.proto, QuantizedBodyFrame), about a\n"
+     "third of the bytes; the state hash is the world's exact hash either way.",
+     kWatchFlags, 1, run_watch},
     {"run", "run a world on a fulcrum-server in real time (its dt on the server's clock)",
      "WORLD [--max-catch-up N]",
      "The server steps the world once per dt against its monotonic clock until `fulcrum pause`.\n"

@@ -1,7 +1,9 @@
 // fulcrum watch: follow a world's frames; one line per second with the newest tick, awake
-// bodies and state hash.
+// bodies, state hash, frame counts and the bytes received (so the cost of --bodies and the
+// saving of --quantized show).
 #include <chrono>
 #include <condition_variable>
+#include <cstdio>
 #include <mutex>
 #include <ostream>
 #include <thread>
@@ -9,6 +11,19 @@
 #include "remote.h"
 
 namespace fulcrum::cli {
+namespace {
+
+// "12.3 kB/s (456 B/frame)" for `bytes` in `frames` frames over `seconds` (kB = 1000 B).
+std::string rate_text(uint64_t bytes, int64_t frames, double seconds) {
+  char text[96];
+  const double per_second = seconds > 0.0 ? static_cast<double>(bytes) / seconds : 0.0;
+  const uint64_t per_frame = frames > 0 ? bytes / static_cast<uint64_t>(frames) : 0;
+  std::snprintf(text, sizeof text, "%.1f kB/s (%llu B/frame)", per_second / 1000.0,
+                static_cast<unsigned long long>(per_frame));
+  return text;
+}
+
+}  // namespace
 
 int run_watch(const Invocation& inv) {
   int exit_code = kExitOk;
@@ -27,6 +42,25 @@ int run_watch(const Invocation& inv) {
     if (!parsed) return inv.usage_error("--every: " + error);
     every = *parsed;
   }
+  client::SubscribeOptions options;
+  options.every_ticks = static_cast<uint32_t>(every);
+  options.quantized = inv.args.has("quantized");
+  // Bodies are what --quantized shrinks, so it asks for the changed ones unless told otherwise.
+  options.bodies = options.quantized ? client::FrameBodies::kChanged : client::FrameBodies::kNone;
+  if (auto b = inv.args.value("bodies")) {
+    if (*b == "none") {
+      options.bodies = client::FrameBodies::kNone;
+    } else if (*b == "changed") {
+      options.bodies = client::FrameBodies::kChanged;
+    } else if (*b == "all") {
+      options.bodies = client::FrameBodies::kAll;
+    } else {
+      return inv.usage_error("--bodies: expected none, changed or all, got '" + *b + "'");
+    }
+    if (options.quantized && options.bodies == client::FrameBodies::kNone) {
+      return inv.usage_error("--quantized: needs bodies (--bodies changed or all), not none");
+    }
+  }
   auto client = connect_from_args(inv, &exit_code);
   if (!client) return exit_code;
 
@@ -35,15 +69,14 @@ int run_watch(const Invocation& inv) {
   client::Frame latest;
   int64_t frames = 0;
   uint64_t skipped = 0;
+  uint64_t bytes = 0;
   bool ended = false;
-  client::SubscribeOptions options;
-  options.every_ticks = static_cast<uint32_t>(every);
-  options.bodies = client::FrameBodies::kNone;
   auto sub = client->subscribe(*world, options, [&](const client::Frame& f) {
     std::lock_guard<std::mutex> lock(mu);
     latest = f;
     ++frames;
     skipped += f.skipped_frames;
+    bytes += f.message_bytes;
   });
   if (!sub.ok()) return inv.fail(sub.status().message());
   // The stream's end is noticed by a second thread so that the printing loop can wait on time.
@@ -57,15 +90,22 @@ int run_watch(const Invocation& inv) {
   });
 
   const auto start = std::chrono::steady_clock::now();
+  auto printed_at = start;
   int64_t printed_frames = 0;
+  uint64_t printed_bytes = 0;
   for (int64_t second = 1;; ++second) {
     std::unique_lock<std::mutex> lock(mu);
     cv.wait_until(lock, start + std::chrono::seconds(second), [&] { return ended; });
     if (frames > printed_frames) {
+      const auto now = std::chrono::steady_clock::now();
+      const double elapsed = std::chrono::duration<double>(now - printed_at).count();
       inv.out << "tick " << latest.tick << "  awake " << latest.awake_body_count << "/"
               << latest.body_count << "  hash " << hex64(latest.state_hash) << "  frames " << frames
-              << " (" << skipped << " coalesced)" << std::endl;
+              << " (" << skipped << " coalesced)  "
+              << rate_text(bytes - printed_bytes, frames - printed_frames, elapsed) << std::endl;
       printed_frames = frames;
+      printed_bytes = bytes;
+      printed_at = now;
     }
     if (ended || (seconds > 0 && second >= seconds)) break;
   }

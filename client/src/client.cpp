@@ -186,6 +186,7 @@ Frame frame_from(const v1::Frame& f) {
         [](const BodyFrame& a, const BodyFrame& b) { return a.id.index < b.id.index; });
   }
   for (const v1::Handle& h : f.destroyed()) out.destroyed.push_back(id_from<BodyId>(h));
+  out.message_bytes = f.ByteSizeLong();
   return out;
 }
 

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -147,6 +148,7 @@ struct Frame {
   bool restored = false;  // the world was restored since the previous frame
   std::vector<BodyFrame> bodies;
   std::vector<BodyId> destroyed;
+  size_t message_bytes = 0;  // the frame's protobuf encoding as received (gRPC framing aside)
 };
 
 enum class FrameBodies { kAll, kChanged, kNone };
