@@ -1,68 +1,213 @@
 // fulcrum-server: the Physics gRPC service on one address. Prints "listening on HOST:PORT" once
 // it accepts calls, and stops cleanly on SIGTERM or SIGINT (health NOT_SERVING, streams end,
 // calls in progress get a grace period) with exit code 0.
+//
+// The flags are Abseil flags. Abseil names a flag like an identifier (max_worlds) while
+// Fulcrum's command line, scripts and docs spell it with hyphens (--max-worlds), so
+// normalize_command_line() first rewrites each flag to Abseil's `--max_worlds=VALUE` form and
+// turns the mistakes it can see (an unknown flag, a missing or malformed value) into usage
+// errors naming the flag as it was typed; absl::ParseCommandLine then sets the flags (and
+// handles --helpfull, --flagfile, --fromenv), and the range checks below run on the result.
 #include <pthread.h>
 #include <signal.h>
 
-#include <charconv>
 #include <chrono>
-#include <cstdio>
+#include <cstdint>
 #include <fstream>
 #include <iostream>
 #include <sstream>
 #include <string>
 #include <string_view>
+#include <vector>
 
+#include "absl/flags/flag.h"
+#include "absl/flags/marshalling.h"
+#include "absl/flags/parse.h"
+#include "absl/flags/reflection.h"
+#include "absl/flags/usage.h"
+#include "absl/flags/usage_config.h"
+#include "absl/strings/match.h"
 #include "server.h"
 #include "stats.h"
+
+ABSL_FLAG(std::string, listen, "127.0.0.1:50051",
+          "HOST:PORT to listen on; port 0 picks a free port, printed as \"listening on "
+          "HOST:PORT\"");
+ABSL_FLAG(int64_t, max_worlds, 64, "worlds alive at once, 1 or more");
+ABSL_FLAG(int64_t, max_bodies, 100000, "live bodies per world, 1 or more");
+ABSL_FLAG(int64_t, max_step_ticks, 1000000, "ticks per Step call, 1 to 4294967295");
+ABSL_FLAG(int64_t, max_message_bytes, 64 << 20,
+          "largest request or reply in bytes, 1024 or more; larger requests are refused with "
+          "RESOURCE_EXHAUSTED");
+ABSL_FLAG(std::string, token_file, "",
+          "FILE whose first line is a token: every call but health checks must then carry "
+          "`authorization: Bearer <token>` (default: no token)");
+ABSL_FLAG(int64_t, grace_ms, 5000,
+          "on SIGTERM/SIGINT, the time in ms calls in progress get, 0 to 3600000");
+ABSL_FLAG(int64_t, worker_threads, 0,
+          "threads stepping the worlds that run in real time, 0 to 1024; 0: the number of "
+          "hardware threads");
+ABSL_FLAG(std::string, replay_dir, "",
+          "DIR where StartRecording writes replays, created if missing (default: none, "
+          "recording is refused)");
+ABSL_FLAG(std::string, tls_cert, "",
+          "FILE: serve TLS only, with this PEM certificate chain (needs --tls-key)");
+ABSL_FLAG(std::string, tls_key, "", "FILE: the PEM private key of --tls-cert");
+ABSL_FLAG(int64_t, max_reader_stall_ms, 10000,
+          "end a StreamFrames reader with RESOURCE_EXHAUSTED when its frame has been in flight "
+          "this many ms, 1 to 86400000");
+ABSL_FLAG(std::string, log, "on",
+          "on|off: one key=value line per world event and refused request on stderr");
 
 namespace {
 
 constexpr char kUsage[] =
-    "usage: fulcrum-server [FLAGS]\n"
-    "\n"
-    "  --listen HOST:PORT       address to listen on (default 127.0.0.1:50051; port 0 picks a\n"
-    "                           free port, printed as \"listening on HOST:PORT\")\n"
-    "  --max-worlds N           worlds alive at once (default 64)\n"
-    "  --max-bodies N           live bodies per world (default 100000)\n"
-    "  --max-step-ticks N       ticks per Step call (default 1000000)\n"
-    "  --max-message-bytes N    largest request or reply (default 67108864)\n"
-    "  --token-file FILE        require `authorization: Bearer <token>` on every call but\n"
-    "                           health checks; the token is the file's first line\n"
-    "  --grace-ms N             on SIGTERM/SIGINT, time calls in progress get (default 5000)\n"
-    "  --worker-threads N       threads stepping worlds that run in real time (default: the\n"
-    "                           number of hardware threads)\n"
-    "  --replay-dir DIR         where StartRecording writes replays (created if missing;\n"
-    "                           default: none, recording is refused)\n"
-    "  --tls-cert FILE          serve TLS only, with this PEM certificate chain (needs --tls-key)\n"
-    "  --tls-key FILE           the PEM private key of --tls-cert\n"
-    "  --max-reader-stall-ms N  end a StreamFrames reader with RESOURCE_EXHAUSTED when its\n"
-    "                           frame has been in flight this long (default 10000)\n"
-    "  --log on|off             one key=value line per world event and refused request on\n"
-    "                           stderr (default on)\n"
-    "\n"
-    "exit codes: 0 stopped by a signal, 1 could not start, 2 bad command line\n";
+    "the Fulcrum physics gRPC service on one address.\n"
+    "usage: fulcrum-server [--flag VALUE | --flag=VALUE]...\n"
+    "exit codes: 0 stopped by a signal, 1 could not start, 2 bad command line";
 
-bool parse_number(std::string_view text, int64_t min, int64_t max, int64_t* out) {
-  int64_t value = 0;
-  auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (ec != std::errc() || end != text.data() + text.size() || value < min || value > max) {
-    return false;
-  }
-  *out = value;
-  return true;
+// Fulcrum's flags in the order --help lists them.
+std::vector<const absl::CommandLineFlag*> fulcrum_flags() {
+  return {&absl::GetFlagReflectionHandle(FLAGS_listen),
+          &absl::GetFlagReflectionHandle(FLAGS_max_worlds),
+          &absl::GetFlagReflectionHandle(FLAGS_max_bodies),
+          &absl::GetFlagReflectionHandle(FLAGS_max_step_ticks),
+          &absl::GetFlagReflectionHandle(FLAGS_max_message_bytes),
+          &absl::GetFlagReflectionHandle(FLAGS_token_file),
+          &absl::GetFlagReflectionHandle(FLAGS_grace_ms),
+          &absl::GetFlagReflectionHandle(FLAGS_worker_threads),
+          &absl::GetFlagReflectionHandle(FLAGS_replay_dir),
+          &absl::GetFlagReflectionHandle(FLAGS_tls_cert),
+          &absl::GetFlagReflectionHandle(FLAGS_tls_key),
+          &absl::GetFlagReflectionHandle(FLAGS_max_reader_stall_ms),
+          &absl::GetFlagReflectionHandle(FLAGS_log)};
 }
 
+// "max_worlds" -> "--max-worlds", the spelling users type.
+std::string dashed(absl::string_view name) {
+  std::string out = "--" + std::string(name);
+  for (size_t i = 2; i < out.size(); ++i) {
+    if (out[i] == '_') out[i] = '-';
+  }
+  return out;
+}
+
+void print_help(std::ostream& out) {
+  out << "fulcrum-server: " << kUsage << "\n\n";
+  for (const absl::CommandLineFlag* flag : fulcrum_flags()) {
+    out << "  " << dashed(flag->Name());
+    const std::string value = flag->DefaultValue();
+    if (!value.empty()) out << " (default " << value << ")";
+    // The help text, wrapped at spaces to lines of at most 90 characters.
+    const std::string help = flag->Help();
+    size_t line_start = 0;
+    while (line_start < help.size()) {
+      size_t end = help.size();
+      if (end - line_start > 84) {
+        end = help.rfind(' ', line_start + 84);
+        if (end == std::string::npos || end <= line_start) end = help.find(' ', line_start + 84);
+        if (end == std::string::npos) end = help.size();
+      }
+      out << "\n      " << help.substr(line_start, end - line_start);
+      line_start = end + 1;
+    }
+    out << "\n";
+  }
+  out << "\nThese are Abseil flags: --helpfull lists Abseil's own flags too (--flagfile=FILE, "
+         "--fromenv=NAMES),\nwhich spell names with underscores (--max_worlds=64).\n";
+}
+
+int usage_error(const std::string& message) {
+  std::cerr << "fulcrum-server: " << message << "\nfulcrum-server --help lists the flags\n";
+  return 2;
+}
+
+bool is_fulcrum_flag(const absl::CommandLineFlag* flag) {
+  for (const absl::CommandLineFlag* own : fulcrum_flags()) {
+    if (own == flag) return true;
+  }
+  return false;
+}
+
+// The flags absl::ParseCommandLine answers itself (they are not in Abseil's flag registry):
+// --helpfull, --helpshort, --help=SUBSTRING, --version and the like.
+bool is_abseil_usage_flag(std::string_view name) {
+  for (std::string_view usage : {"help", "helpfull", "helpshort", "helppackage", "helpon",
+                                 "helpmatch", "version", "only_check_args"}) {
+    if (name == usage) return true;
+  }
+  return false;
+}
+
+// Rewrites argv into Abseil's spelling (program name, then one `--name=value` per flag) in
+// *out, or returns the usage error for the first argument it cannot take. A non-boolean flag
+// takes its value after `=` or from the next argument, unless that is a flag too.
+std::string normalize_command_line(int argc, char** argv, std::vector<std::string>* out) {
+  out->assign(1, argv[0]);
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg.rfind("--", 0) != 0 || arg.size() == 2) {
+      return (!arg.empty() && arg[0] == '-' ? "unknown flag '" : "unexpected argument '") + arg +
+             "'";
+    }
+    const size_t eq = arg.find('=');
+    std::string name = arg.substr(2, eq == std::string::npos ? std::string::npos : eq - 2);
+    for (char& c : name) {
+      if (c == '-') c = '_';
+    }
+    const std::string typed = dashed(name);
+    if (is_abseil_usage_flag(name)) {  // Abseil answers these and exits
+      out->push_back("--" + name + (eq == std::string::npos ? "" : arg.substr(eq)));
+      continue;
+    }
+    const absl::CommandLineFlag* flag = absl::FindCommandLineFlag(name);
+    if (flag == nullptr) return "unknown flag '" + typed + "'";
+    if (eq == std::string::npos && flag->IsOfType<bool>()) {
+      out->push_back("--" + name);
+      continue;
+    }
+    std::string value;
+    if (eq != std::string::npos) {
+      value = arg.substr(eq + 1);
+    } else if (i + 1 < argc && std::string_view(argv[i + 1]).rfind("--", 0) != 0) {
+      value = argv[++i];
+    } else {
+      return typed + " needs a value";
+    }
+    int64_t number = 0;
+    std::string why;
+    if (flag->IsOfType<int64_t>() && !absl::ParseFlag(value, &number, &why)) {
+      return typed + ": expected a whole number, got '" + value + "'";
+    }
+    if (value.empty() && is_fulcrum_flag(flag)) return typed + ": expected a value, got ''";
+    out->push_back("--" + name + "=" + value);
+  }
+  return "";
+}
+
+// The value of an integer flag, or a usage error naming the flag when outside [min, max].
+bool in_range(const absl::Flag<int64_t>& flag, int64_t min, int64_t max, int64_t* value,
+              std::string* error) {
+  *value = absl::GetFlag(flag);
+  if (*value >= min && *value <= max) return true;
+  *error = dashed(absl::GetFlagReflectionHandle(flag).Name()) + ": expected " +
+           std::to_string(min) + " to " + std::to_string(max) + " (got " + std::to_string(*value) +
+           ")";
+  return false;
+}
+
+// The first line of a token file, trailing spaces and CR removed; false (and *error naming the
+// flag and file) when it cannot be read or that line is empty.
 bool read_token(const std::string& path, std::string* token, std::string* error) {
   std::ifstream in(path);
   if (!in) {
-    *error = path + ": cannot open the token file";
+    *error = "--token-file: cannot open " + path;
     return false;
   }
   std::getline(in, *token);
   while (!token->empty() && (token->back() == '\r' || token->back() == ' ')) token->pop_back();
   if (token->empty()) {
-    *error = path + ": the first line (the token) is empty";
+    *error = "--token-file: the first line of " + path + " (the token) is empty";
     return false;
   }
   return true;
@@ -87,84 +232,88 @@ bool read_pem(const std::string& flag, const std::string& path, std::string* pem
   return true;
 }
 
-int usage_error(const std::string& message) {
-  std::cerr << "fulcrum-server: " << message << "\n\n" << kUsage;
-  return 2;
+// The server's options from the parsed flags: 0, or 2 after printing a usage error.
+int options_from_flags(fulcrum::server::ServerOptions* options, int64_t* grace_ms) {
+  const int64_t kMaxInt = 0x7fffffff;
+  int64_t n = 0;
+  std::string error;
+  options->listen = absl::GetFlag(FLAGS_listen);
+  if (!in_range(FLAGS_max_worlds, 1, kMaxInt, &n, &error)) return usage_error(error);
+  options->limits.max_worlds = static_cast<int>(n);
+  if (!in_range(FLAGS_max_bodies, 1, kMaxInt, &n, &error)) return usage_error(error);
+  options->limits.max_bodies = static_cast<int>(n);
+  if (!in_range(FLAGS_max_step_ticks, 1, 0xffffffff, &n, &error)) return usage_error(error);
+  options->limits.max_step_ticks = static_cast<uint32_t>(n);
+  if (!in_range(FLAGS_max_message_bytes, 1024, kMaxInt, &n, &error)) return usage_error(error);
+  options->max_message_bytes = static_cast<int>(n);
+  if (!in_range(FLAGS_grace_ms, 0, 3600000, grace_ms, &error)) return usage_error(error);
+  if (!in_range(FLAGS_worker_threads, 0, 1024, &n, &error)) return usage_error(error);
+  options->worker_threads = static_cast<int>(n);
+  if (!in_range(FLAGS_max_reader_stall_ms, 1, 86400000, &n, &error)) return usage_error(error);
+  options->limits.max_reader_stall_ms = n;
+  options->replay_dir = absl::GetFlag(FLAGS_replay_dir);
+  const std::string log = absl::GetFlag(FLAGS_log);
+  if (log != "on" && log != "off")
+    return usage_error("--log: expected on or off, got '" + log + "'");
+  fulcrum::server::set_logging(log == "on");
+  if (absl::GetFlag(FLAGS_tls_cert).empty() != absl::GetFlag(FLAGS_tls_key).empty()) {
+    return usage_error(absl::GetFlag(FLAGS_tls_cert).empty() ? "--tls-key needs --tls-cert"
+                                                             : "--tls-cert needs --tls-key");
+  }
+  return 0;
+}
+
+// Reads the files the flags name (token, TLS certificate and key): 0, or 1 after printing why
+// one could not be read.
+int read_flag_files(fulcrum::server::ServerOptions* options) {
+  std::string error;
+  const std::string token_file = absl::GetFlag(FLAGS_token_file);
+  const std::string tls_cert = absl::GetFlag(FLAGS_tls_cert);
+  const std::string tls_key = absl::GetFlag(FLAGS_tls_key);
+  if ((!token_file.empty() && !read_token(token_file, &options->token, &error)) ||
+      (!tls_cert.empty() && !read_pem("--tls-cert", tls_cert, &options->tls_cert_pem, &error)) ||
+      (!tls_key.empty() && !read_pem("--tls-key", tls_key, &options->tls_key_pem, &error))) {
+    std::cerr << "fulcrum-server: " << error << "\n";
+    return 1;
+  }
+  return 0;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  fulcrum::server::ServerOptions options;
-  int64_t grace_ms = 5000;
+  absl::SetProgramUsageMessage(kUsage);
+  absl::FlagsUsageConfig usage_config;
+  // --helpshort and --help=SUBSTRING (handled by Abseil) list the flags of this file.
+  usage_config.contains_help_flags = [](absl::string_view file) {
+    return absl::EndsWith(file, "server/main.cpp");
+  };
+  usage_config.contains_helpshort_flags = usage_config.contains_help_flags;
+  usage_config.version_string = [] { return std::string("fulcrum-server " FULCRUM_VERSION "\n"); };
+  absl::SetFlagsUsageConfig(usage_config);
+
+  // --help and -h are answered here, with the flags spelled as users type them, and exit 0
+  // (Abseil's own --help exits 1).
   for (int i = 1; i < argc; ++i) {
-    std::string arg = argv[i];
+    const std::string_view arg = argv[i];
     if (arg == "--help" || arg == "-h") {
-      std::cout << kUsage;
+      print_help(std::cout);
       return 0;
     }
-    std::string value;
-    const size_t eq = arg.find('=');
-    if (arg.rfind("--", 0) == 0 && eq != std::string::npos) {
-      value = arg.substr(eq + 1);
-      arg = arg.substr(0, eq);
-    } else if (i + 1 < argc) {
-      value = argv[++i];
-    } else {
-      return usage_error(arg + " needs a value");
-    }
-    int64_t n = 0;
-    const int64_t kMaxInt = 0x7fffffff;
-    if (arg == "--listen") {
-      options.listen = value;
-    } else if (arg == "--max-worlds") {
-      if (!parse_number(value, 1, kMaxInt, &n)) return usage_error(arg + ": expected 1 or more");
-      options.limits.max_worlds = static_cast<int>(n);
-    } else if (arg == "--max-bodies") {
-      if (!parse_number(value, 1, kMaxInt, &n)) return usage_error(arg + ": expected 1 or more");
-      options.limits.max_bodies = static_cast<int>(n);
-    } else if (arg == "--max-step-ticks") {
-      if (!parse_number(value, 1, 0xffffffff, &n)) return usage_error(arg + ": expected 1 or more");
-      options.limits.max_step_ticks = static_cast<uint32_t>(n);
-    } else if (arg == "--max-message-bytes") {
-      if (!parse_number(value, 1024, kMaxInt, &n)) return usage_error(arg + ": expected >= 1024");
-      options.max_message_bytes = static_cast<int>(n);
-    } else if (arg == "--grace-ms") {
-      if (!parse_number(value, 0, 3600000, &grace_ms)) return usage_error(arg + ": expected >= 0");
-    } else if (arg == "--token-file") {
-      std::string error;
-      if (!read_token(value, &options.token, &error)) {
-        std::cerr << "fulcrum-server: " << error << "\n";
-        return 1;
-      }
-    } else if (arg == "--worker-threads") {
-      if (!parse_number(value, 1, 1024, &n)) return usage_error(arg + ": expected 1 to 1024");
-      options.worker_threads = static_cast<int>(n);
-    } else if (arg == "--replay-dir") {
-      if (value.empty()) return usage_error(arg + ": expected a directory");
-      options.replay_dir = value;
-    } else if (arg == "--tls-cert" || arg == "--tls-key") {
-      std::string error;
-      if (!read_pem(arg, value, arg == "--tls-cert" ? &options.tls_cert_pem : &options.tls_key_pem,
-                    &error)) {
-        std::cerr << "fulcrum-server: " << error << "\n";
-        return 1;
-      }
-    } else if (arg == "--max-reader-stall-ms") {
-      if (!parse_number(value, 1, 86400000, &n)) return usage_error(arg + ": expected >= 1");
-      options.limits.max_reader_stall_ms = n;
-    } else if (arg == "--log") {
-      if (value != "on" && value != "off") return usage_error(arg + ": expected on or off");
-      fulcrum::server::set_logging(value == "on");
-    } else {
-      return usage_error("unknown flag '" + arg + "'");
-    }
   }
+  std::vector<std::string> normalized;
+  if (std::string error = normalize_command_line(argc, argv, &normalized); !error.empty()) {
+    return usage_error(error);
+  }
+  std::vector<char*> abseil_argv;
+  for (std::string& arg : normalized) abseil_argv.push_back(arg.data());
+  abseil_argv.push_back(nullptr);
+  absl::ParseCommandLine(static_cast<int>(normalized.size()), abseil_argv.data());
 
-  if (options.tls_cert_pem.empty() != options.tls_key_pem.empty()) {
-    return usage_error(options.tls_cert_pem.empty() ? "--tls-key needs --tls-cert"
-                                                    : "--tls-cert needs --tls-key");
-  }
+  fulcrum::server::ServerOptions options;
+  int64_t grace_ms = 0;
+  if (int code = options_from_flags(&options, &grace_ms); code != 0) return code;
+  if (int code = read_flag_files(&options); code != 0) return code;
 
   // Signals are taken by sigwait on this thread only: block them before gRPC starts threads,
   // which inherit the mask.

@@ -10,7 +10,7 @@ FULCRUM_BUILD="${FULCRUM_BUILD:-$FULCRUM_ROOT/build}"
 FULCRUM_PACKAGES=(
   build-essential cmake ninja-build pkg-config clang clang-format
   libeigen3-dev
-  libprotobuf-dev protobuf-compiler libgrpc++-dev protobuf-compiler-grpc
+  libprotobuf-dev protobuf-compiler libgrpc++-dev protobuf-compiler-grpc libabsl-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libbox2d-dev
   openssl

@@ -393,7 +393,7 @@ TEST(FaultTest, KilledCancelledAndTerminatedStreamsEndCleanly) {
 // A request over --max-message-bytes is refused with RESOURCE_EXHAUSTED before any work, and
 // the world is unchanged.
 TEST(FaultTest, OversizedRequestsAreRefused) {
-  ServerProcess server({"--max-message-bytes", "65536"});
+  ServerProcess server({"--max-message-bytes=65536"});  // the --flag=value spelling
   ASSERT_FALSE(server.address().empty()) << server.log();
   auto c = connect(server);
   Result<client::WorldSummary> world = c->create_world_json(pyramid_json());
