@@ -476,10 +476,11 @@ TEST_F(ServerTest, TokenIsRequiredWhenSet) {
   EXPECT_EQ(bytes, std::string("\x08\x01", 2));
 }
 
-// Server reflection lists the Physics service (ServerReflectionRequest{list_services: ""} is
-// the bytes 3a 00; the reply names each service).
-TEST_F(ServerTest, ReflectionListsThePhysicsService) {
-  start();
+// Lists services through server reflection with the given token ("" for none): the status and
+// the reply bytes. ServerReflectionRequest{list_services: ""} is the bytes 3a 00; the reply
+// names each service.
+std::pair<grpc::Status, std::string> list_services(const std::shared_ptr<grpc::Channel>& channel,
+                                                   const std::string& token) {
   class Lister : public grpc::ClientBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer> {
    public:
     void start() {
@@ -488,14 +489,13 @@ TEST_F(ServerTest, ReflectionListsThePhysicsService) {
       StartCall();
     }
     void OnReadDone(bool ok) override {
-      if (ok) {
-        std::vector<grpc::Slice> slices;
-        if (response_.Dump(&slices).ok()) {
-          for (const auto& s : slices) {
-            text_.append(reinterpret_cast<const char*>(s.begin()), s.size());
-          }
-        }
+      if (!ok) return;
+      std::vector<grpc::Slice> slices;
+      if (response_.Dump(&slices).ok()) {
+        for (const auto& s : slices)
+          text_.append(reinterpret_cast<const char*>(s.begin()), s.size());
       }
+      StartRead(&response_);
     }
     void OnDone(const grpc::Status& status) override { done_.set_value(status); }
     grpc::Slice slice_{std::string("\x3a\x00", 2)};
@@ -504,17 +504,25 @@ TEST_F(ServerTest, ReflectionListsThePhysicsService) {
     std::string text_;
     std::promise<grpc::Status> done_;
   } lister;
-  grpc::GenericStub generic(channel_);
+  grpc::GenericStub generic(channel);
   grpc::ClientContext context;
   context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+  if (!token.empty()) context.AddMetadata("authorization", "Bearer " + token);
   generic.PrepareBidiStreamingCall(&context,
                                    "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo",
                                    grpc::StubOptions(), &lister);
   lister.start();
   grpc::Status status = lister.done_.get_future().get();
+  return {status, lister.text_};
+}
+
+// Server reflection lists the Physics service and the health service.
+TEST_F(ServerTest, ReflectionListsThePhysicsService) {
+  start();
+  auto [status, text] = list_services(channel_, "");
   ASSERT_TRUE(status.ok()) << status.error_message();
-  EXPECT_NE(lister.text_.find("fulcrum.v1.Physics"), std::string::npos);
-  EXPECT_NE(lister.text_.find("grpc.health.v1.Health"), std::string::npos);
+  EXPECT_NE(text.find("fulcrum.v1.Physics"), std::string::npos);
+  EXPECT_NE(text.find("grpc.health.v1.Health"), std::string::npos);
 }
 
 TEST_F(ServerTest, ShutdownEndsStreams) {
@@ -592,45 +600,6 @@ TEST_F(ServerTest, TlsServesOnlyClientsThatTrustItsCertificate) {
   EXPECT_NE(bad.status().message().find("tls_cert"), std::string::npos);
   std::filesystem::remove_all(dir);
   std::filesystem::remove_all(other);
-}
-
-// Lists services through reflection with the given token ("" for none): the status and the
-// reply bytes.
-std::pair<grpc::Status, std::string> list_services(const std::shared_ptr<grpc::Channel>& channel,
-                                                   const std::string& token) {
-  class Lister : public grpc::ClientBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer> {
-   public:
-    void start() {
-      StartWrite(&request_, grpc::WriteOptions().set_last_message());
-      StartRead(&response_);
-      StartCall();
-    }
-    void OnReadDone(bool ok) override {
-      if (!ok) return;
-      std::vector<grpc::Slice> slices;
-      if (response_.Dump(&slices).ok()) {
-        for (const auto& s : slices)
-          text_.append(reinterpret_cast<const char*>(s.begin()), s.size());
-      }
-      StartRead(&response_);
-    }
-    void OnDone(const grpc::Status& status) override { done_.set_value(status); }
-    grpc::Slice slice_{std::string("\x3a\x00", 2)};
-    grpc::ByteBuffer request_{&slice_, 1};
-    grpc::ByteBuffer response_;
-    std::string text_;
-    std::promise<grpc::Status> done_;
-  } lister;
-  grpc::GenericStub generic(channel);
-  grpc::ClientContext context;
-  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
-  if (!token.empty()) context.AddMetadata("authorization", "Bearer " + token);
-  generic.PrepareBidiStreamingCall(&context,
-                                   "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo",
-                                   grpc::StubOptions(), &lister);
-  lister.start();
-  grpc::Status status = lister.done_.get_future().get();
-  return {status, lister.text_};
 }
 
 TEST_F(ServerTest, ReflectionNeedsTheTokenWhenOneIsSet) {
