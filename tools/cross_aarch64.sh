@@ -60,11 +60,17 @@ compiled=$(grep -c '"command"' "$commands")
 without=$(grep '"command"' "$commands" | grep -vc -- '-ffp-contract=off' || true)
 [ "$compiled" -gt 0 ] && [ "$without" -eq 0 ] ||
   fail "$without of $compiled translation units compiled without -ffp-contract=off"
+# One object is exempt: reference.cpp, the reference solver (a ruler for the sweep, never run by
+# World::step), whose Eigen sparse kernels call NEON's fused multiply-add intrinsics on aarch64
+# whatever the flag says. Its results are bit-identical run to run on one build, not across
+# architectures; docs/accuracy.md says so.
 fused=$(aarch64-linux-gnu-objdump -d "$CROSS_BUILD"/lib/*.a "$CROSS_BUILD/bin/fulcrum_golden" |
-  grep -cE $'\t(fmadd|fmsub|fnmadd|fnmsub|fmla|fmls)\t' || true)
+  awk '/file format/ { member = $1 }
+       member != "reference.cpp.o:" && /\t(fmadd|fmsub|fnmadd|fnmsub|fmla|fmls)\t/ { n++ }
+       END { print n + 0 }')
 [ "$fused" -eq 0 ] || fail "$fused fused multiply-add instructions in the aarch64 code"
 echo "cross-aarch64: all $compiled translation units built with -ffp-contract=off;" \
-  "no fused multiply-add instructions"
+  "no fused multiply-add instructions outside the reference solver"
 
 # --- Run and compare -------------------------------------------------------------------------
 native_bin="$FULCRUM_BUILD/bin/fulcrum_golden"
