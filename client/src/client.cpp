@@ -278,8 +278,7 @@ class GrpcClient final : public Client {
 
   Result<std::vector<WorldSummary>> list_worlds() override {
     v1::ListWorldsReply reply;
-    auto context = make_context();
-    Status st = from_grpc(stub_->ListWorlds(context.get(), v1::ListWorldsRequest(), &reply));
+    Status st = unary(&v1::Physics::Stub::ListWorlds, v1::ListWorldsRequest(), &reply);
     if (!st.ok()) return st;
     std::vector<WorldSummary> out;
     for (const v1::WorldInfo& w : reply.worlds()) out.push_back(summary_from(w));
@@ -290,8 +289,7 @@ class GrpcClient final : public Client {
     v1::GetWorldRequest request;
     request.set_world_id(world);
     v1::WorldInfo reply;
-    auto context = make_context();
-    Status st = from_grpc(stub_->GetWorld(context.get(), request, &reply));
+    Status st = unary(&v1::Physics::Stub::GetWorld, request, &reply);
     if (!st.ok()) return st;
     return summary_from(reply);
   }
@@ -300,8 +298,7 @@ class GrpcClient final : public Client {
     v1::DeleteWorldRequest request;
     request.set_world_id(world);
     v1::DeleteWorldReply reply;
-    auto context = make_context();
-    return from_grpc(stub_->DeleteWorld(context.get(), request, &reply));
+    return unary(&v1::Physics::Stub::DeleteWorld, request, &reply);
   }
 
   Result<EditResult> apply_edits(uint64_t world, const v1::EditBatch& batch,
@@ -311,8 +308,7 @@ class GrpcClient final : public Client {
     *request.mutable_batch() = batch;
     if (expected_tick) request.set_expected_tick(*expected_tick);
     v1::ApplyEditsReply reply;
-    auto context = make_context();
-    Status st = from_grpc(stub_->ApplyEdits(context.get(), request, &reply));
+    Status st = unary(&v1::Physics::Stub::ApplyEdits, request, &reply);
     if (!st.ok()) return st;
     EditResult out;
     out.tick = reply.tick();
@@ -331,8 +327,7 @@ class GrpcClient final : public Client {
     if (expected_tick) request.set_expected_tick(*expected_tick);
     request.set_include_snapshot(include_snapshot);
     v1::StepReply reply;
-    auto context = make_context();
-    Status st = from_grpc(stub_->Step(context.get(), request, &reply));
+    Status st = unary(&v1::Physics::Stub::Step, request, &reply);
     if (!st.ok()) return st;
     StepResult out;
     out.tick = reply.tick();
@@ -347,8 +342,7 @@ class GrpcClient final : public Client {
     v1::GetSnapshotRequest request;
     request.set_world_id(world);
     v1::GetSnapshotReply reply;
-    auto context = make_context();
-    Status st = from_grpc(stub_->GetSnapshot(context.get(), request, &reply));
+    Status st = unary(&v1::Physics::Stub::GetSnapshot, request, &reply);
     if (!st.ok()) return st;
     SnapshotResult out;
     out.tick = reply.tick();
@@ -368,8 +362,7 @@ class GrpcClient final : public Client {
                        std::to_string(snapshot_bytes.size()) + " bytes)");
     }
     v1::RestoreSnapshotReply reply;
-    auto context = make_context();
-    Status st = from_grpc(stub_->RestoreSnapshot(context.get(), request, &reply));
+    Status st = unary(&v1::Physics::Stub::RestoreSnapshot, request, &reply);
     if (!st.ok()) return st;
     return RestoreResult{reply.world_id(), reply.tick(), reply.state_hash()};
   }
@@ -461,8 +454,7 @@ class GrpcClient final : public Client {
     request.set_mode(mode == RunMode::kRealTime ? v1::RUN_MODE_REAL_TIME : v1::RUN_MODE_PAUSED);
     if (max_catch_up_ticks) request.set_max_catch_up_ticks(*max_catch_up_ticks);
     v1::SetRunModeReply reply;
-    auto context = make_context();
-    Status st = from_grpc(stub_->SetRunMode(context.get(), request, &reply));
+    Status st = unary(&v1::Physics::Stub::SetRunMode, request, &reply);
     if (!st.ok()) return st;
     return RunModeResult{run_mode_from(reply.mode()), reply.tick()};
   }
@@ -473,8 +465,7 @@ class GrpcClient final : public Client {
     request.set_world_id(world);
     if (keyframe_interval) request.set_keyframe_interval(*keyframe_interval);
     v1::StartRecordingReply reply;
-    auto context = make_context();
-    Status st = from_grpc(stub_->StartRecording(context.get(), request, &reply));
+    Status st = unary(&v1::Physics::Stub::StartRecording, request, &reply);
     if (!st.ok()) return st;
     RecordingResult out;
     out.name = reply.name();
@@ -486,8 +477,7 @@ class GrpcClient final : public Client {
     v1::StopRecordingRequest request;
     request.set_world_id(world);
     v1::StopRecordingReply reply;
-    auto context = make_context();
-    Status st = from_grpc(stub_->StopRecording(context.get(), request, &reply));
+    Status st = unary(&v1::Physics::Stub::StopRecording, request, &reply);
     if (!st.ok()) return st;
     RecordingResult out;
     out.name = reply.name();
@@ -550,8 +540,7 @@ class GrpcClient final : public Client {
 
   Result<v1::ServerStats> get_stats() override {
     v1::ServerStats reply;
-    auto context = make_context();
-    Status st = from_grpc(stub_->GetStats(context.get(), v1::GetStatsRequest(), &reply));
+    Status st = unary(&v1::Physics::Stub::GetStats, v1::GetStatsRequest(), &reply);
     if (!st.ok()) return st;
     return reply;
   }
@@ -564,17 +553,24 @@ class GrpcClient final : public Client {
     return context;
   }
 
+  // One unary call with the deadline and token of make_context(); the server's status mapped.
+  template <typename Request, typename Reply>
+  Status unary(grpc::Status (v1::Physics::Stub::*method)(grpc::ClientContext*, const Request&,
+                                                         Reply*),
+               const Request& request, Reply* reply) {
+    auto context = make_context();
+    return from_grpc((stub_.get()->*method)(context.get(), request, reply));
+  }
+
   Result<WorldSummary> create(const v1::CreateWorldRequest& request) {
     v1::CreateWorldReply reply;
-    auto context = make_context();
-    Status st = from_grpc(stub_->CreateWorld(context.get(), request, &reply));
+    Status st = unary(&v1::Physics::Stub::CreateWorld, request, &reply);
     if (!st.ok()) return st;
     return summary_from(reply.world());
   }
 
   Status query(const v1::QueryRequest& request, v1::QueryReply* reply) {
-    auto context = make_context();
-    return from_grpc(stub_->Query(context.get(), request, reply));
+    return unary(&v1::Physics::Stub::Query, request, reply);
   }
 
   Result<std::vector<ShapeHit>> shape_hits(const v1::QueryRequest& request) {
