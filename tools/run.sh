@@ -42,6 +42,9 @@ fail() {
 }
 
 # 1. The server, on a port the kernel picks; it prints "listening on HOST:PORT" when ready.
+# Its output files exist first, so the loop never reads before the redirections are open.
+: >"$WORK/server.out"
+: >"$WORK/server.err"
 "$BIN/fulcrum-server" --listen 127.0.0.1:0 --replay-dir "$WORK/replays" "$@" \
   >"$WORK/server.out" 2>"$WORK/server.err" &
 SERVER_PID=$!

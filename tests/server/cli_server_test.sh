@@ -17,6 +17,10 @@ fail() { echo "FAIL: $*" >&2; cat "$WORK"/*.err >&2 2>/dev/null || true; exit 1;
 start_server() {  # start_server NAME [FLAGS...]: sets PID and ADDR
   local name="$1"
   shift
+  # The output files exist before the server starts: the loop below may read them before the
+  # background shell has opened its redirections.
+  : >"$WORK/$name.out"
+  : >"$WORK/$name.err"
   "$BIN/fulcrum-server" --listen 127.0.0.1:0 "$@" >"$WORK/$name.out" 2>"$WORK/$name.err" &
   PID=$!
   ADDR=""
