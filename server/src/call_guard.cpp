@@ -30,8 +30,17 @@ bool token_matches(const grpc::ServerContextBase& context, const std::string& to
 
 class CallGuard final : public grpc::experimental::Interceptor {
  public:
-  CallGuard(grpc::experimental::ServerRpcInfo* info, const std::string& token)
-      : info_(info), token_(token), method_(info->method()) {}
+  CallGuard(grpc::experimental::ServerRpcInfo* info, const std::string& token,
+            std::atomic<int>* in_flight)
+      : info_(info),
+        token_(token),
+        method_(info->method()),
+        in_flight_(method_.rfind("/fulcrum.", 0) == 0 ? in_flight : nullptr) {
+    if (in_flight_ != nullptr) in_flight_->fetch_add(1);
+  }
+  ~CallGuard() override {
+    if (in_flight_ != nullptr) in_flight_->fetch_sub(1);
+  }
 
   void Intercept(grpc::experimental::InterceptorBatchMethods* methods) override {
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_INITIAL_METADATA)) {
@@ -78,27 +87,30 @@ class CallGuard final : public grpc::experimental::Interceptor {
   grpc::experimental::ServerRpcInfo* info_;
   const std::string& token_;
   const std::string method_;
+  std::atomic<int>* const in_flight_;  // null: a call that is not counted
   bool locked_out_ = false;
 };
 
 class CallGuardFactory final : public grpc::experimental::ServerInterceptorFactoryInterface {
  public:
-  explicit CallGuardFactory(std::string token) : token_(std::move(token)) {}
+  CallGuardFactory(std::string token, std::shared_ptr<std::atomic<int>> in_flight)
+      : token_(std::move(token)), in_flight_(std::move(in_flight)) {}
   grpc::experimental::Interceptor* CreateServerInterceptor(
       grpc::experimental::ServerRpcInfo* info) override {
-    return new CallGuard(info, token_);
+    return new CallGuard(info, token_, in_flight_.get());
   }
 
  private:
   const std::string token_;
+  const std::shared_ptr<std::atomic<int>> in_flight_;
 };
 
 }  // namespace
 
 std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>>
-make_call_guards(std::string token) {
+make_call_guards(std::string token, std::shared_ptr<std::atomic<int>> in_flight) {
   std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> out;
-  out.push_back(std::make_unique<CallGuardFactory>(std::move(token)));
+  out.push_back(std::make_unique<CallGuardFactory>(std::move(token), std::move(in_flight)));
   return out;
 }
 

@@ -3,9 +3,11 @@
 // bearer token. gRPC C++ interceptors cannot stop a call before its handler runs, so for a
 // reflection call without the right token the guard empties every reply message (nothing about
 // the services leaks) and replaces the final status with UNAUTHENTICATED. The Physics service
-// checks the token in its handlers; health checks need none.
+// checks the token in its handlers; health checks need none. The guards also count the Physics
+// calls in flight (a guard lives exactly as long as its call), which shutdown waits on.
 #pragma once
 
+#include <atomic>
 #include <memory>
 #include <string>
 #include <vector>
@@ -14,7 +16,11 @@
 
 namespace fulcrum::server {
 
+// `in_flight` counts the calls to Fulcrum's own services whose guard exists, from the call's
+// start until gRPC destroys it after the final status. Health and reflection calls are not
+// counted: a health Watch stream stays open as long as its client likes, and shutdown must not
+// wait for it.
 std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>>
-make_call_guards(std::string token);
+make_call_guards(std::string token, std::shared_ptr<std::atomic<int>> in_flight);
 
 }  // namespace fulcrum::server

@@ -316,10 +316,15 @@ grpc::Status PhysicsService::check_token(const grpc::ServerContextBase& context)
   return grpc::Status::OK;
 }
 
-#define FULCRUM_CHECK_TOKEN(context)              \
-  do {                                            \
-    grpc::Status auth_ = check_token(*(context)); \
-    if (!auth_.ok()) return auth_;                \
+// Every unary handler starts here: the token, then a server that is stopping refuses new work
+// (calls already running finish within the shutdown's grace period).
+#define FULCRUM_CHECK_TOKEN(context)                                                \
+  do {                                                                              \
+    grpc::Status auth_ = check_token(*(context));                                   \
+    if (!auth_.ok()) return auth_;                                                  \
+    if (shutting_down_) {                                                           \
+      return grpc::Status(grpc::StatusCode::UNAVAILABLE, "the server is stopping"); \
+    }                                                                               \
   } while (false)
 
 grpc::Status PhysicsService::CreateWorld(grpc::ServerContext* context,

@@ -57,7 +57,8 @@ Result<std::unique_ptr<Server>> Server::start(const ServerOptions& options) {
     credentials = grpc::SslServerCredentials(tls);
   }
   builder.AddListeningPort(options.listen, credentials, &port);
-  builder.experimental().SetInterceptorCreators(make_call_guards(options.token));
+  builder.experimental().SetInterceptorCreators(
+      make_call_guards(options.token, server->calls_in_flight_));
   builder.RegisterService(server->service_.get());
   builder.SetMaxReceiveMessageSize(options.max_message_bytes);
   builder.SetMaxSendMessageSize(options.max_message_bytes);
@@ -89,9 +90,19 @@ void Server::shutdown(std::chrono::milliseconds grace) {
     return;
   }
   server_->GetHealthCheckService()->SetServingStatus(false);
-  service_->begin_shutdown();
+  service_->begin_shutdown();  // streams end, new calls are refused
   pool_->shutdown();
-  server_->Shutdown(std::chrono::system_clock::now() + grace);
+  // The calls still running get the grace period. gRPC's own Shutdown(deadline) would also wait,
+  // up to the deadline, for every client connection to close after it is told to go away, and
+  // a client with no call open notices that only when its poller next wakes (about every 5 s):
+  // one idle client would hold the shutdown for the whole grace period. So the calls are waited
+  // for here, and gRPC is then shut down with no grace left, which only cuts idle connections
+  // (and cancels any call still running when the grace period is over).
+  const auto deadline = std::chrono::steady_clock::now() + grace;
+  while (calls_in_flight_->load() > 0 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  server_->Shutdown(std::chrono::system_clock::now());
   server_->Wait();
   registry_->close_all_recordings();  // after Wait: no call can open another
 }

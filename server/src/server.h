@@ -3,6 +3,7 @@
 // it with flags and signals; tests start it in-process on port 0.
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <memory>
 #include <string>
@@ -46,12 +47,15 @@ class Server {
   const std::string& address() const { return address_; }
   Registry& registry() { return *registry_; }
 
-  // Health goes NOT_SERVING, open streams end (UNAVAILABLE), real-time clocks stop, calls in
-  // progress get up to `grace` to finish before they are cancelled, recordings are closed.
-  // Returns when the server has stopped (its pool threads joined).
+  // Health goes NOT_SERVING, open streams end (UNAVAILABLE), new calls are refused
+  // (UNAVAILABLE), real-time clocks stop, calls in progress get up to `grace` to finish before
+  // they are cancelled, client connections with no call open are closed without waiting,
+  // recordings are closed. Returns when the server has stopped (its pool threads joined).
   void shutdown(std::chrono::milliseconds grace);
   // Blocks until shutdown() has run (from another thread).
   void wait();
+  // Calls to the Physics service being served now (health and reflection calls not counted).
+  int calls_in_flight() const { return calls_in_flight_->load(); }
 
  private:
   Server() = default;
@@ -61,6 +65,7 @@ class Server {
   std::unique_ptr<Registry> registry_;
   std::unique_ptr<PhysicsService> service_;
   std::unique_ptr<grpc::Server> server_;
+  std::shared_ptr<std::atomic<int>> calls_in_flight_ = std::make_shared<std::atomic<int>>(0);
   int port_ = 0;
   std::string address_;
   bool stopped_ = false;

@@ -538,6 +538,34 @@ TEST_F(ServerTest, ShutdownEndsStreams) {
   EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(2));
 }
 
+// A call running when the shutdown begins finishes within the grace period with its full
+// result, and a call that arrives after the shutdown began is refused. The world does not sleep,
+// so 1000 ticks of the 211-body pyramid keep the Step busy for a while (about 0.5 s here);
+// the shutdown starts once the server counts the Step, the only call then, in flight.
+TEST_F(ServerTest, ShutdownLetsARunningCallFinish) {
+  start();
+  std::string json = pyramid_json();
+  const std::string settings = "\"settings\": {";
+  ASSERT_NE(json.find(settings), std::string::npos);
+  json.insert(json.find(settings) + settings.size(), "\"enableSleep\": false, ");
+  Result<client::WorldSummary> w = client_->create_world_json(json);
+  ASSERT_TRUE(w.ok()) << w.status().message();
+  // CreateWorld's call ends on the server just after its reply reaches the client.
+  ASSERT_TRUE(eventually([&] { return server_->calls_in_flight() == 0; }));
+  std::future<Result<client::StepResult>> step =
+      std::async(std::launch::async, [&] { return client_->step(w->id, 1000); });
+  ASSERT_TRUE(eventually([&] { return server_->calls_in_flight() > 0; }, std::chrono::seconds(10)));
+  std::thread stopper([&] { server_->shutdown(std::chrono::milliseconds(30000)); });
+  Result<client::StepResult> stepped = step.get();
+  stopper.join();
+  ASSERT_TRUE(stepped.ok()) << stepped.status().message();
+  EXPECT_EQ(stepped->tick, 1000);
+  Result<std::vector<client::WorldSummary>> late = client_->list_worlds();
+  EXPECT_FALSE(late.ok());
+  EXPECT_NE(late.status().message().find("UNAVAILABLE"), std::string::npos)
+      << late.status().message();
+}
+
 // A self-signed certificate for localhost and 127.0.0.1, made with openssl (tools/setup.sh
 // installs it) in a fresh directory; returns the directory, or empty when openssl failed.
 std::string make_certificate(const std::string& name) {
