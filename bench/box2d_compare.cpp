@@ -38,6 +38,7 @@
 
 #include <box2d/box2d.h>
 
+#include "bench_text.h"
 #include "box2d_twin.h"
 #include "fulcrum/scene.h"
 #include "fulcrum/scenes.h"
@@ -324,7 +325,6 @@ struct Case {
   int ticks = 600;
   // The measures that apply, with the name each goes by in this case.
   std::vector<std::pair<Measure, std::string>> labels;
-  std::function<std::unique_ptr<Probe>()> probe;
   // Runs to take the median of, unless --repeats says otherwise: one for the three largest
   // scenes, whose one run already times 499 steps of each engine in alternation.
   int repeats = 3;
@@ -338,43 +338,36 @@ std::vector<Case> all_cases() {
   // clang-format off
   c.push_back({1, "vertical_stack", "top box moves < 5 cm sideways; penetration <= 2 x slop",
       scene("vertical_stack"), 600,
-      {{kDisplacement, "top box drift (m)"}, pen, {kBodiesOut, "boxes moved >= 5 cm sideways"}},
-      stack_probe});
+      {{kDisplacement, "top box drift (m)"}, pen, {kBodiesOut, "boxes moved >= 5 cm sideways"}}});
   c.push_back({2, "large_pyramid",
       "no box moves > 0.5 m; top box drops < 10 cm after settling; penetration <= 2 x slop",
       scene("large_pyramid"), 500,
-      {pen, {kBodiesOut, "boxes moved > 0.5 m"}, {kDisplacement, "largest move (m)"}},
-      [] { return pyramid_probe(true); }, 1});
+      {pen, {kBodiesOut, "boxes moved > 0.5 m"}, {kDisplacement, "largest move (m)"}}, 1});
   c.push_back({3, "many_pyramids", "no box moves > 0.5 m; penetration <= 2 x slop",
       scene("many_pyramids"), 500,
-      {pen, {kBodiesOut, "boxes moved > 0.5 m"}, {kDisplacement, "largest move (m)"}},
-      [] { return pyramid_probe(false); }, 1});
+      {pen, {kBodiesOut, "boxes moved > 0.5 m"}, {kDisplacement, "largest move (m)"}}, 1});
   c.push_back({4, "mass_ratio_100", "no box moves >= 10 cm; penetration < 5 cm",
       scene("mass_ratio_100"), 600,
-      {{kDisplacement, "largest move (m)"}, pen, {kBodiesOut, "boxes moved >= 10 cm"}},
-      mass_ratio_100_probe});
+      {{kDisplacement, "largest move (m)"}, pen, {kBodiesOut, "boxes moved >= 10 cm"}}});
   c.push_back({5, "mass_ratio_400",
       "small boxes within 0.25 m sideways and above 0.4 m; big box ends above 10.5 m; "
       "penetration < 10 cm",
       scene("mass_ratio_400"), 600,
-      {pen, {kDisplacement, "small box pushed (m)"}, {kBodiesOut, "small-box criteria missed"}},
-      mass_ratio_400_probe});
+      {pen, {kDisplacement, "small box pushed (m)"}, {kBodiesOut, "small-box criteria missed"}}});
   c.push_back({9, "joint_grid", "no NaN; largest joint separation < 10 cm", scene("joint_grid"),
-      500, {joint}, [] { return joint_probe(0.10, false, false); }, 1});
+      500, {joint}, 1});
   c.push_back({10, "heavy_chain", "largest joint separation < 5 cm; no energy gain", heavy_chain,
-      600, {joint, {kEnergyDrift, "energy gain (of |E0|)"}}, [] { return joint_probe(0.05, true, false); }});
+      600, {joint, {kEnergyDrift, "energy gain (of |E0|)"}}});
   c.push_back({11, "bridge",
       "largest joint separation < 5 cm; sag steady (middle plank moves < 1 cm in the last "
       "second, no plank on the ground)",
       scene("bridge"), 600, {joint, {kDisplacement, "sag swing, last 1 s (m)"},
-       {kBodiesOut, "planks on the ground"}},
-      [] { return joint_probe(0.05, false, true); }});
+       {kBodiesOut, "planks on the ground"}}});
   c.push_back({12, "ragdolls", "no NaN; joint separation < 5 cm; limits passed by < 0.05 rad",
       scene("ragdolls"), 600,
-      {joint, {kLimitError, "past a limit (rad)"}, pen, {kBodiesOut, "ragdolls not down"}},
-      ragdoll_probe});
+      {joint, {kLimitError, "past a limit (rad)"}, pen, {kBodiesOut, "ragdolls not down"}}});
   c.push_back({13, "cloth", "no constraint stretched 5 % or more; no NaN", scene("cloth"), 600,
-      {{kStretch, "max stretch"}, joint}, cloth_probe});
+      {{kStretch, "max stretch"}, joint}});
   // clang-format on
   return c;
 }
@@ -389,8 +382,7 @@ Case generic_case(const std::string& name) {
           {{kMaxPenetration, "max penetration (m)"},
            {kJointError, "max joint separation (m)"},
            {kBodiesOut, "bodies moved > 0.5 m"},
-           {kDisplacement, "largest move (m)"}},
-          moved_probe};
+           {kDisplacement, "largest move (m)"}}};
 }
 
 bool applies(const Case& c, Measure m) {
@@ -470,7 +462,7 @@ CaseRun run_case(const Case& c, const Options& o) {
       for (int e = 0; e < kEngineCount; ++e) {
         engines[e]->read(&poses[e]);
         read_joints(scene, poses[e], &readings[e]);
-        probes[e] = c.probe();
+        probes[e] = c.id > 0 ? hard_case_probe(c.id) : moved_probe();
         probes[e]->begin(view(e, 0));
       }
     }
@@ -539,13 +531,6 @@ std::string case_title(const Case& c) {
 // "2 large_pyramid", or the scene's name alone for a scene outside HARD_CASES.
 std::string case_name(const Case& c) {
   return c.id > 0 ? std::to_string(c.id) + " " + c.name : c.name;
-}
-
-std::string load_average() {
-  std::ifstream f("/proc/loadavg");
-  double a = 0, b = 0, c = 0;
-  if (!(f >> a >> b >> c)) return "unknown";
-  return num(a) + " " + num(b) + " " + num(c);
 }
 
 struct Header {
@@ -739,16 +724,6 @@ void write_file(const std::string& path, const std::string& text) {
   if (!out) die("cannot write " + path);
 }
 
-std::vector<std::string> split(const std::string& list) {
-  std::vector<std::string> out;
-  std::stringstream ss(list);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    if (!item.empty()) out.push_back(item);
-  }
-  return out;
-}
-
 int positive(const std::string& flag, const std::string& text, int min) {
   char* end = nullptr;
   long v = std::strtol(text.c_str(), &end, 10);
@@ -784,7 +759,7 @@ int main(int argc, char** argv) {
       return argv[++i];
     };
     if (a == "--cases" || a == "--scene") {
-      for (const std::string& w : split(value())) wanted.push_back(w);
+      for (const std::string& w : split_list(value())) wanted.push_back(w);
     } else if (a == "--repeats") {
       o.repeats = positive(a, value(), 1);
     } else if (a == "--ticks" || a == "--steps") {

@@ -13,13 +13,11 @@
 #include <string>
 #include <vector>
 
+#include "bench_text.h"
 #include "fulcrum/math.h"
 #include "fulcrum/scene.h"
 
 namespace fulcrum::bench {
-
-// "%.3g": how every figure in a failure message is printed.
-std::string num(double v, int digits = 3);
 
 // Every error measure a probe or a runner fills; a case fills those that apply to it.
 enum Measure {
@@ -114,22 +112,12 @@ class Probe {
   virtual void finish(const View&, Measures*) = 0;
 };
 
-// The probes, one per criterion (what each checks: hard_case_probes.cpp, above each class).
-std::unique_ptr<Probe> stack_probe();                 // case 1
-std::unique_ptr<Probe> pyramid_probe(bool top_drop);  // cases 2 (top_drop) and 3
-std::unique_ptr<Probe> mass_ratio_100_probe();        // case 4
-std::unique_ptr<Probe> mass_ratio_400_probe();        // case 5
-std::unique_ptr<Probe> overlap_probe();               // case 6
-std::unique_ptr<Probe> arch_probe();                  // case 7
-std::unique_ptr<Probe> confined_probe();              // case 8
-std::unique_ptr<Probe> joint_probe(double limit, bool energy, bool sag);  // cases 9, 10, 11
-std::unique_ptr<Probe> ragdoll_probe();                                   // case 12
-std::unique_ptr<Probe> cloth_probe();                                     // case 13
-std::unique_ptr<Probe> bounce_probe();                                    // case 14
-std::unique_ptr<Probe> slide_probe();                                     // case 15
-// Case 16; `release` is the bob's release amplitude (x at tick 0), m.
-std::unique_ptr<Probe> pendulum_probe(double release);
-std::unique_ptr<Probe> tumbler_probe();  // case 18
+// The probe that judges HARD_CASES case `id` (what each checks: hard_case_probes.cpp, above
+// each class), with the scene layout of the scene table's builtin (and, for the heavy chain
+// (10) and the pendulum (16), of the scenes their tests build). Null for the bullet (17):
+// its criterion needs worlds of its own (fulcrum_sweep runs them), and for ids outside 1..18.
+std::unique_ptr<Probe> hard_case_probe(int id);
+
 // Any other scene: how far the bodies moved (displacement, bodies moved > 0.5 m), no criterion.
 std::unique_ptr<Probe> moved_probe();
 

@@ -319,8 +319,6 @@ struct Case {
   double limit = 0.0;  // the main error's pass limit (0: none drawn)
   // The measures that apply, with the name each goes by in this case (first: the main one).
   std::vector<std::pair<Measure, std::string>> labels;
-  // The case's probe; `smoke` is true for a CI run (--smoke).
-  std::function<std::unique_ptr<Probe>(bool smoke)> probe;
   std::string ticks_note;  // why the tick count differs from HARD_CASES, if it does
   // Run once whatever --repeats says: the four largest scenes, whose one run already takes
   // seconds per setting (ms per step is then the mean over that run's timed steps).
@@ -386,86 +384,81 @@ std::vector<Case> all_cases() {
   const auto joint = std::pair{kJointError, std::string("max joint error (m)")};
   std::vector<Case> cases;
   auto scene = [](const char* name) { return [name] { return builtin(name); }; };
-  // A probe without parameters, the same for a smoke run.
-  auto probe = [](std::unique_ptr<Probe> (*make)()) { return [make](bool) { return make(); }; };
   // clang-format off
   cases.push_back({1, "vertical_stack", "top box moves < 5 cm sideways; penetration <= 2 x slop",
       scene("vertical_stack"), 600, 600, kDisplacement, 0.05,
       {{kDisplacement, "top box drift (m)"}, pen, mean, {kBodiesOut, "boxes moved >= 5 cm"},
-       speed}, probe(stack_probe), ""});
+       speed}, ""});
   cases.push_back({2, "large_pyramid",
       "no box moves > 0.5 m; top box drops < 10 cm after settling; penetration <= 2 x slop",
       scene("large_pyramid"), 75, 75, kMaxPenetration, 0.01,
       {pen, mean, {kDisplacement, "largest move (m)"}, {kBodiesOut, "boxes moved > 0.5 m"}, speed},
-      [](bool) { return pyramid_probe(true); },
       "75 ticks of 500, one run (top box settled at tick 30, penetration over ticks 61..75)",
       true});
   cases.push_back({3, "many_pyramids", "no box moves > 0.5 m; penetration <= 2 x slop",
       scene("many_pyramids"), 200, 200, kMaxPenetration, 0.01,
       {pen, mean, {kDisplacement, "largest move (m)"}, {kBodiesOut, "boxes moved > 0.5 m"}, speed},
-      [](bool) { return pyramid_probe(false); }, "200 ticks of 500, one run", true});
+      "200 ticks of 500, one run", true});
   cases.push_back({4, "mass_ratio_100", "no box moves > 10 cm; penetration < 5 cm",
       scene("mass_ratio_100"), 600, 600, kDisplacement, 0.10,
       {{kDisplacement, "largest move (m)"}, pen, mean, {kBodiesOut, "boxes moved >= 10 cm"},
-       speed}, probe(mass_ratio_100_probe), ""});
+       speed}, ""});
   cases.push_back({5, "mass_ratio_400",
       "small boxes within 0.25 m sideways and above 0.4 m; big box ends above 10.5 m; "
       "penetration < 10 cm",
       scene("mass_ratio_400"), 600, 600, kMaxPenetration, 0.10,
       {pen, mean, {kDisplacement, "small box pushed (m)"}, {kBodiesOut, "small-box criteria missed"}, speed},
-      probe(mass_ratio_400_probe), ""});
+      ""});
   cases.push_back({6, "overlap_recovery",
       "overlap <= 2 x slop at 2 s; speed < 3 m/s at every tick; no centre moves >= 5 cm after 2 s",
       scene("overlap_recovery"), 300, 300, kMaxSpeed, 3.0,
       {speed, pen, mean, {kDisplacement, "moved after 2 s (m)"},
-       {kBodiesOut, "boxes moved after 2 s"}}, probe(overlap_probe), ""});
+       {kBodiesOut, "boxes moved after 2 s"}}, ""});
   cases.push_back({7, "arch", "crown drops < 2 cm at every tick", scene("arch"), 600, 600,
       kDisplacement, 0.02, {{kDisplacement, "crown drop (m)"}, pen, mean, speed},
-      probe(arch_probe), ""});
+      ""});
   cases.push_back({8, "confined",
       "no centre reaches the walls (|x|, |y| < 10.5); kinetic energy after 3 s never above its "
       "3 s value", scene("confined"), 600, 60, kEnergyDrift, 0.0,
       {{kEnergyDrift, "KE rise after 3 s (x)"}, pen, mean, {kDisplacement, "largest |x|, |y| (m)"},
-       {kBodiesOut, "circles out"}, speed}, probe(confined_probe), "timed over steps 1..59"});
+       {kBodiesOut, "circles out"}, speed}, "timed over steps 1..59"});
   cases.push_back({9, "joint_grid", "no NaN; largest joint separation < 10 cm",
       scene("joint_grid"), 80, 80, kJointError, 0.10, {joint, speed},
-      [](bool) { return joint_probe(0.10, false, false); },
       "80 ticks of 500, one run (at the default the error grows to 0.49 m by then, 0.55 m at "
       "its peak near tick 110)", true});
   cases.push_back({10, "heavy_chain", "largest joint separation < 5 cm; no energy gain",
       heavy_chain, 600, 600, kJointError, 0.05,
       {joint, {kEnergyDrift, "energy gain (of |E0|)"}, speed},
-      [](bool) { return joint_probe(0.05, true, false); }, ""});
+      ""});
   cases.push_back({11, "bridge",
       "largest joint separation < 5 cm; sag steady (middle plank moves < 1 cm in the last "
       "second, no plank on the ground)",
       scene("bridge"), 600, 120, kJointError, 0.05,
       {joint, {kDisplacement, "sag swing, last 1 s (m)"},
        {kBodiesOut, "planks on the ground"}, speed},
-      [](bool) { return joint_probe(0.05, false, true); }, "timed over steps 1..119"});
+      "timed over steps 1..119"});
   cases.push_back({12, "ragdolls", "no NaN; joint separation < 5 cm; limits passed by < 0.05 rad",
       scene("ragdolls"), 600, 60, kJointError, 0.05,
       {joint, {kLimitError, "past a limit (rad)"}, pen, mean, {kBodiesOut, "ragdolls not down"},
-       speed}, probe(ragdoll_probe), "timed over steps 1..59"});
+       speed}, "timed over steps 1..59"});
   cases.push_back({13, "cloth", "no constraint stretched more than 5 %; no NaN", scene("cloth"),
-      240, 60, kStretch, 0.05, {{kStretch, "max stretch"}, joint, speed}, probe(cloth_probe),
-      "240 ticks of 600 (the stretch peaks in the first jerk), timed over steps 1..59"});
+      240, 60, kStretch, 0.05, {{kStretch, "max stretch"}, joint, speed}, "240 ticks of 600 (the stretch peaks in the first jerk), timed over steps 1..59"});
   cases.push_back({14, "bounce", "bounce height ratios e^2 = 0.25 +- 2 %", scene("bounce"), 600,
-      600, kAnalytic, 0.02, {{kAnalytic, "ratio error"}, pen, speed}, probe(bounce_probe), ""});
+      600, kAnalytic, 0.02, {{kAnalytic, "ratio error"}, pen, speed}, ""});
   cases.push_back({15, "slide", "slides 2.5 m +- 2 % and stops", scene("slide"), 300, 300,
-      kAnalytic, 0.02, {{kAnalytic, "distance error"}, pen, speed}, probe(slide_probe), ""});
+      kAnalytic, 0.02, {{kAnalytic, "distance error"}, pen, speed}, ""});
   cases.push_back({16, "pendulum", "period 2 pi sqrt(L/g) +- 0.5 %; amplitude does not grow",
       pendulum, 1200, 1200, kAnalytic, 0.005,
       {{kAnalytic, "period error"}, {kEnergyDrift, "amplitude growth"}, joint},
-      [](bool) { return pendulum_probe(fulcrum::det_sincos(kPendulumAngle).sin); }, ""});
+      ""});
   cases.push_back({17, "bullet", "never passes through (100 starts at 300 m/s, 100 at 30, 50 at 15)",
       scene("bullet"), 60, 60, kDisplacement, 0.10,
       {{kDisplacement, "deepest past the face (m)"}, {kBodiesOut, "pass-throughs"}, pen},
-      [](bool smoke) { return std::unique_ptr<Probe>(new BulletProbe(smoke)); }, ""});
+      ""});
   cases.push_back({18, "tumbler", "no box leaves the drum; motor speed within 1 %",
       scene("tumbler"), 90, 90, kMaxPenetration, 0.0,
       {pen, mean, {kDisplacement, "largest drum coordinate (m)"}, {kBodiesOut, "boxes out"}, speed},
-      probe(tumbler_probe), "90 ticks of 750, one run (the boxes land; the drum turns 37 deg)",
+      "90 ticks of 750, one run (the boxes land; the drum turns 37 deg)",
       true});
   // clang-format on
   // The velocity error against the reference solver, where one reference solve is cheap (tens
@@ -543,7 +536,9 @@ Row run(const Case& c, const Setting& setting, int repeats, bool smoke) {
     const bool measure = r == 0;
     const int ticks = measure ? row.ticks : timing_ticks;
     Built b = build(scene);
-    std::unique_ptr<Probe> probe = c.probe(smoke);
+    // The case's criterion: hard_case_probes.h's, but for the bullet's (here).
+    std::unique_ptr<Probe> probe =
+        c.id == 17 ? std::make_unique<BulletProbe>(smoke) : hard_case_probe(c.id);
     WorldMetrics wm;  // after the last tick measured (before the first, for begin())
     if (measure) {
       wm = b.world.metrics();
@@ -780,27 +775,10 @@ std::string markdown(const std::vector<Case>& cases, const std::vector<Row>& row
   return o.str();
 }
 
-std::string load_average() {
-  std::ifstream f("/proc/loadavg");
-  double a = 0, b = 0, c = 0;
-  if (!(f >> a >> b >> c)) return "unknown";
-  return num(a) + " " + num(b) + " " + num(c);
-}
-
 void write_file(const std::filesystem::path& path, const std::string& text) {
   std::ofstream f(path, std::ios::binary);
   f << text;
   if (!f) die("cannot write " + path.string());
-}
-
-std::vector<std::string> split(const std::string& list) {
-  std::vector<std::string> out;
-  std::stringstream ss(list);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    if (!item.empty()) out.push_back(item);
-  }
-  return out;
 }
 
 }  // namespace
@@ -838,7 +816,7 @@ int main(int argc, char** argv) {
   std::vector<Case> cases = all_cases();
   if (!case_list.empty()) {
     std::vector<Case> chosen;
-    for (const std::string& want : split(case_list)) {
+    for (const std::string& want : split_list(case_list)) {
       auto it = std::find_if(cases.begin(), cases.end(), [&](const Case& c) {
         return c.name == want || std::to_string(c.id) == want;
       });
