@@ -92,8 +92,7 @@ void WorldImpl::update_pairs() {
   for (int si : move_buffer) shapes[si].in_move_buffer = false;
   move_buffer.clear();
 
-  std::sort(pairs.begin(), pairs.end());
-  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  std::sort(pairs.begin(), pairs.end());  // each pair was found once: no duplicates to remove
   for (const auto& [sa, sb] : pairs) {
     if (has_contact(sa, sb)) continue;
     create_contact(sa, sb);

@@ -318,7 +318,7 @@ grpc::Status PhysicsService::check_token(const grpc::ServerContextBase& context)
 
 // Every unary handler starts here: the token, then a server that is stopping refuses new work
 // (calls already running finish within the shutdown's grace period).
-#define FULCRUM_CHECK_TOKEN(context)                                                \
+#define FULCRUM_ADMIT_CALL(context)                                                 \
   do {                                                                              \
     grpc::Status auth_ = check_token(*(context));                                   \
     if (!auth_.ok()) return auth_;                                                  \
@@ -330,7 +330,7 @@ grpc::Status PhysicsService::check_token(const grpc::ServerContextBase& context)
 grpc::Status PhysicsService::CreateWorld(grpc::ServerContext* context,
                                          const v1::CreateWorldRequest* request,
                                          v1::CreateWorldReply* reply) {
-  FULCRUM_CHECK_TOKEN(context);
+  FULCRUM_ADMIT_CALL(context);
   if (!request->has_scene()) {
     return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "scene: required");
   }
@@ -356,14 +356,14 @@ grpc::Status PhysicsService::CreateWorld(grpc::ServerContext* context,
 grpc::Status PhysicsService::ListWorlds(grpc::ServerContext* context,
                                         const v1::ListWorldsRequest* request,
                                         v1::ListWorldsReply* reply) {
-  FULCRUM_CHECK_TOKEN(context);
+  FULCRUM_ADMIT_CALL(context);
   for (const auto& session : registry_->list()) session->summary(reply->add_worlds());
   return grpc::Status::OK;
 }
 
 grpc::Status PhysicsService::GetWorld(grpc::ServerContext* context,
                                       const v1::GetWorldRequest* request, v1::WorldInfo* reply) {
-  FULCRUM_CHECK_TOKEN(context);
+  FULCRUM_ADMIT_CALL(context);
   auto session = registry_->find(request->world_id());
   if (!session.ok()) return to_grpc_status(session.status());
   (*session)->info(reply);
@@ -373,14 +373,14 @@ grpc::Status PhysicsService::GetWorld(grpc::ServerContext* context,
 grpc::Status PhysicsService::DeleteWorld(grpc::ServerContext* context,
                                          const v1::DeleteWorldRequest* request,
                                          v1::DeleteWorldReply* reply) {
-  FULCRUM_CHECK_TOKEN(context);
+  FULCRUM_ADMIT_CALL(context);
   return to_grpc_status(registry_->remove(request->world_id()));
 }
 
 grpc::Status PhysicsService::ApplyEdits(grpc::ServerContext* context,
                                         const v1::ApplyEditsRequest* request,
                                         v1::ApplyEditsReply* reply) {
-  FULCRUM_CHECK_TOKEN(context);
+  FULCRUM_ADMIT_CALL(context);
   auto session = registry_->find(request->world_id());
   if (!session.ok()) return to_grpc_status(session.status());
   return to_grpc_status((*session)->apply_edits(
@@ -390,7 +390,7 @@ grpc::Status PhysicsService::ApplyEdits(grpc::ServerContext* context,
 
 grpc::Status PhysicsService::Step(grpc::ServerContext* context, const v1::StepRequest* request,
                                   v1::StepReply* reply) {
-  FULCRUM_CHECK_TOKEN(context);
+  FULCRUM_ADMIT_CALL(context);
   auto session = registry_->find(request->world_id());
   if (!session.ok()) return to_grpc_status(session.status());
   return to_grpc_status((*session)->step(
@@ -401,7 +401,7 @@ grpc::Status PhysicsService::Step(grpc::ServerContext* context, const v1::StepRe
 grpc::Status PhysicsService::GetSnapshot(grpc::ServerContext* context,
                                          const v1::GetSnapshotRequest* request,
                                          v1::GetSnapshotReply* reply) {
-  FULCRUM_CHECK_TOKEN(context);
+  FULCRUM_ADMIT_CALL(context);
   auto session = registry_->find(request->world_id());
   if (!session.ok()) return to_grpc_status(session.status());
   (*session)->snapshot(reply);
@@ -411,7 +411,7 @@ grpc::Status PhysicsService::GetSnapshot(grpc::ServerContext* context,
 grpc::Status PhysicsService::RestoreSnapshot(grpc::ServerContext* context,
                                              const v1::RestoreSnapshotRequest* request,
                                              v1::RestoreSnapshotReply* reply) {
-  FULCRUM_CHECK_TOKEN(context);
+  FULCRUM_ADMIT_CALL(context);
   if (!request->has_snapshot()) {
     return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "snapshot: required");
   }
@@ -442,7 +442,7 @@ grpc::Status PhysicsService::RestoreSnapshot(grpc::ServerContext* context,
 
 grpc::Status PhysicsService::Query(grpc::ServerContext* context, const v1::QueryRequest* request,
                                    v1::QueryReply* reply) {
-  FULCRUM_CHECK_TOKEN(context);
+  FULCRUM_ADMIT_CALL(context);
   auto session = registry_->find(request->world_id());
   if (!session.ok()) return to_grpc_status(session.status());
   return to_grpc_status((*session)->query(*request, reply));
@@ -480,7 +480,7 @@ grpc::ServerWriteReactor<grpc::ByteBuffer>* PhysicsService::StreamFrames(
 
 grpc::Status PhysicsService::GetStats(grpc::ServerContext* context,
                                       const v1::GetStatsRequest* request, v1::ServerStats* reply) {
-  FULCRUM_CHECK_TOKEN(context);
+  FULCRUM_ADMIT_CALL(context);
   counters().to_proto(static_cast<uint32_t>(registry_->list().size()), reply);
   return grpc::Status::OK;
 }
@@ -490,7 +490,7 @@ grpc::Status PhysicsService::GetStats(grpc::ServerContext* context,
 grpc::Status PhysicsService::SetRunMode(grpc::ServerContext* context,
                                         const v1::SetRunModeRequest* request,
                                         v1::SetRunModeReply* reply) {
-  FULCRUM_CHECK_TOKEN(context);
+  FULCRUM_ADMIT_CALL(context);
   auto session = registry_->find(request->world_id());
   if (!session.ok()) return to_grpc_status(session.status());
   std::optional<uint32_t> cap;
@@ -501,7 +501,7 @@ grpc::Status PhysicsService::SetRunMode(grpc::ServerContext* context,
 grpc::Status PhysicsService::StartRecording(grpc::ServerContext* context,
                                             const v1::StartRecordingRequest* request,
                                             v1::StartRecordingReply* reply) {
-  FULCRUM_CHECK_TOKEN(context);
+  FULCRUM_ADMIT_CALL(context);
   auto session = registry_->find(request->world_id());
   if (!session.ok()) return to_grpc_status(session.status());
   std::optional<uint32_t> keyframes;
@@ -512,7 +512,7 @@ grpc::Status PhysicsService::StartRecording(grpc::ServerContext* context,
 grpc::Status PhysicsService::StopRecording(grpc::ServerContext* context,
                                            const v1::StopRecordingRequest* request,
                                            v1::StopRecordingReply* reply) {
-  FULCRUM_CHECK_TOKEN(context);
+  FULCRUM_ADMIT_CALL(context);
   auto session = registry_->find(request->world_id());
   if (!session.ok()) return to_grpc_status(session.status());
   return to_grpc_status((*session)->stop_recording(reply));
