@@ -77,28 +77,32 @@ native_bin="$FULCRUM_BUILD/bin/fulcrum_golden"
 cross_bin="$CROSS_BUILD/bin/fulcrum_golden"
 cross_run() { qemu-aarch64 -L "$SYSROOT" "$cross_bin" "$@"; }
 reference=$("$native_bin")
-got=$(cross_run) || fail "fulcrum_golden exited with an error under qemu-aarch64"
-ran=$SECONDS
 
 failed=0
 passed=0
-while read -r name ticks final combined; do
-  line=$(grep "^$name " <<< "$got" || true)
-  if [ "$line" = "$name $ticks $final $combined" ]; then
-    passed=$((passed + 1))
-    continue
-  fi
-  failed=$((failed + 1))
-  echo "cross-aarch64: scenario '$name' differs on aarch64: got '${line:-no line}'," \
-    "x86-64 gives '$name $ticks $final $combined'"
-  first=$(diff <("$native_bin" --per-tick "$name") <(cross_run --per-tick "$name") |
-    grep -m1 '^<' || true)
-  [ -z "$first" ] || echo "cross-aarch64:   first differing tick: $(cut -d' ' -f3 <<< "$first") of $ticks"
-done <<< "$reference"
-[ "$(wc -l <<< "$got")" -eq "$(wc -l <<< "$reference")" ] || {
-  failed=$((failed + 1))
-  echo "cross-aarch64: aarch64 printed $(wc -l <<< "$got") lines, x86-64 $(wc -l <<< "$reference")"
-}
+# Every instruction path of the contact solver: scalar, NEON's 2 lanes, and the 4-lane code
+# built for the baseline (each 4-lane operation split in two).
+for simd in scalar lanes2 lanes4; do
+  got=$(cross_run --simd "$simd") || fail "fulcrum_golden --simd $simd exited with an error under qemu-aarch64"
+  while read -r name ticks final combined; do
+    line=$(grep "^$name " <<< "$got" || true)
+    if [ "$line" = "$name $ticks $final $combined" ]; then
+      passed=$((passed + 1))
+      continue
+    fi
+    failed=$((failed + 1))
+    echo "cross-aarch64: scenario '$name' ($simd) differs on aarch64: got '${line:-no line}'," \
+      "x86-64 gives '$name $ticks $final $combined'"
+    first=$(diff <("$native_bin" --per-tick "$name") <(cross_run --simd "$simd" --per-tick "$name") |
+      grep -m1 '^<' || true)
+    [ -z "$first" ] || echo "cross-aarch64:   first differing tick: $(cut -d' ' -f3 <<< "$first") of $ticks"
+  done <<< "$reference"
+  [ "$(wc -l <<< "$got")" -eq "$(wc -l <<< "$reference")" ] || {
+    failed=$((failed + 1))
+    echo "cross-aarch64: aarch64 ($simd) printed $(wc -l <<< "$got") lines, x86-64 $(wc -l <<< "$reference")"
+  }
+done
+ran=$SECONDS
 
 echo "cross-aarch64: $passed scenarios identical, $failed differ (install $((installed - started)) s," \
   "build $((built - installed)) s, run $((ran - built)) s)"

@@ -552,6 +552,18 @@ void WorldImpl::solve(const std::vector<int>& awake) {
   gather_contacts(*this, awake, &s.contacts);
   prepare(*this, s, h);
   prepare_joints(awake, h);
+  // Soft contacts are solved colour by colour in lanes (contact_lanes.h); rigid contacts (the
+  // classic settings, with the block solver and split impulses) one by one in id order.
+  const bool coloured = !rule.rigid;
+  const LaneRule lane_solve{1.0 / h, set.max_correction_speed, true};
+  const LaneRule lane_relax{1.0 / h, set.max_correction_speed, false};
+  if (coloured) {
+    colour_contacts(s, &coloured_contacts);
+    update_separations(coloured_contacts, s.bodies.data());
+  }
+  auto contact_pass = [&](const BiasRule& r, const LaneRule& lr) {
+    return coloured ? solve_coloured(coloured_contacts, s.bodies.data(), lr) : solve_contacts(s, r);
+  };
   for (int sub = 0; sub < set.substeps; ++sub) {
     record_speed_before(s);
     // Applied forces, all from the state at the substep's start (explicit), then constraints.
@@ -561,21 +573,27 @@ void WorldImpl::solve(const std::vector<int>& awake) {
     // Later substeps always start from the impulses of the one before.
     if (set.warm_starting || sub > 0) {
       warm_start_joints();
-      warm_start(s);
+      if (coloured) {
+        warm_start_coloured(coloured_contacts, s.bodies.data());
+      } else {
+        warm_start(s);
+      }
     }
     for (int it = 0; it < set.velocity_iterations; ++it) {
       solve_joints(true);
-      if (solve_contacts(s, rule) < set.early_exit_tolerance) break;
+      if (contact_pass(rule, lane_solve) < set.early_exit_tolerance) break;
     }
     if (rule.rigid && rule.split) {
       for (int it = 0; it < set.position_iterations; ++it) solve_pseudo(s, rule);
     }
     integrate_positions(s, h);
+    if (coloured) update_separations(coloured_contacts, s.bodies.data());
     for (int it = 0; it < set.relax_iterations; ++it) {
       solve_joints(false);
-      if (solve_contacts(s, relax) < set.early_exit_tolerance) break;
+      if (contact_pass(relax, lane_relax) < set.early_exit_tolerance) break;
     }
   }
+  if (coloured) unpack_impulses(coloured_contacts, &s);
   apply_restitution(s, set.restitution_threshold);
   store_impulses(*this, s);
   finalize_bodies(*this, awake, s);

@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "contact_lanes.h"
 #include "contact_solver.h"
 #include "dynamic_tree.h"
 #include "fulcrum/state.h"
@@ -106,6 +107,7 @@ class WorldImpl {
   std::vector<int> scratch_contacts;
   std::vector<int> scratch_awake;
   SolverScratch solver_scratch;
+  ColouredContacts coloured_contacts;
   std::vector<std::pair<int, int>> scratch_pairs;  // broad phase
   std::vector<int> scratch_parent;                 // islands
   std::vector<double> scratch_rest, scratch_root_rest;

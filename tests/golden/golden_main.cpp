@@ -4,16 +4,19 @@
 // at any tick shows. tools/determinism.sh and tools/cross_aarch64.sh compare this output
 // between builds; golden_test.cpp pins it.
 //
-// Usage: fulcrum_golden [--per-tick] [scenario...]
+// Usage: fulcrum_golden [--per-tick] [--simd PATH] [scenario...]
 //   no scenario names: every scenario, in order
 //   --per-tick: one line "name tick hash" per tick instead (tick = World::tick() after the
 //               step, from 1), for finding the first tick at which two builds differ
+//   --simd PATH: the contact solver's instruction path (scalar, lanes2, lanes4, auto); an
+//               error, not a fallback, when this CPU cannot run it
 #include <cinttypes>
 #include <cstdio>
 #include <cstring>
 #include <string>
 #include <vector>
 
+#include "fulcrum/simd.h"
 #include "golden_scenes.h"
 
 int main(int argc, char** argv) {
@@ -23,6 +26,13 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--per-tick") == 0) {
       per_tick = true;
+    } else if (std::strcmp(argv[i], "--simd") == 0 && i + 1 < argc) {
+      fulcrum::Result<fulcrum::SimdPath> path = fulcrum::parse_simd_path(argv[++i]);
+      fulcrum::Status set = path.ok() ? fulcrum::set_simd_path(*path) : path.status();
+      if (!set.ok()) {
+        std::fprintf(stderr, "fulcrum_golden: %s\n", set.message().c_str());
+        return 2;
+      }
     } else {
       wanted.emplace_back(argv[i]);
     }

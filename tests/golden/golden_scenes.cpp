@@ -571,6 +571,40 @@ void edit_joints(World& world, int64_t tick) {
   }
 }
 
+// --- 7. lanes: what the coloured contact lanes must get right --------------------------------
+// A plank carrying 40 balls touches more bodies than there are colours, so some of its
+// contacts overflow and are solved one by one; a kinematic paddle sweeps through a pile of
+// boxes (contacts of one colour may share it: the solver never writes it); bouncy balls give
+// one-point manifolds with restitution. Its hash is compared across the instruction paths.
+
+World build_lanes() {
+  SceneDef s;
+  scenes::add_ground(&s, 60.0);
+  SceneBody plank = box_body(BodyType::kDynamic, Vec2(-10.0, 0.6), 12.0, 0.1, 2.0);
+  push(&s, std::move(plank));
+  for (int i = 0; i < 40; ++i) {
+    double r = 0.2 + 0.05 * (i % 3);
+    push(&s, ball_body(Vec2(-21.5 + 0.6 * i, 0.7 + r + 0.01 * (i % 5)), r, 1.0));
+  }
+  for (int row = 0; row < 5; ++row) {
+    for (int col = 0; col < 8; ++col) {
+      push(&s,
+           box_body(BodyType::kDynamic, Vec2(8.0 + 0.55 * col + 0.1 * (row % 2), 0.25 + 0.5 * row),
+                    0.25, 0.25, 1.0));
+    }
+  }
+  SceneBody paddle = box_body(BodyType::kKinematic, Vec2(5.0, 1.0), 0.2, 1.0, 1.0);
+  paddle.def.linear_velocity = Vec2(3.0, 0.0);
+  paddle.def.angular_velocity = 0.5;
+  push(&s, std::move(paddle));
+  for (int i = 0; i < 12; ++i) {
+    SceneBody ball = ball_body(Vec2(18.0 + 0.9 * i, 4.0 + 0.3 * (i % 4)), 0.3, 1.0);
+    ball.shapes[0].restitution = 0.6;
+    push(&s, std::move(ball));
+  }
+  return require(build_world(s), "lanes", "build_world");
+}
+
 }  // namespace
 
 const std::vector<GoldenScenario>& golden_scenarios() {
@@ -581,6 +615,7 @@ const std::vector<GoldenScenario>& golden_scenarios() {
       {"sleep_wake", 480, build_sleep_wake, edit_sleep_wake},
       {"edits", 480, build_edits, edit_edits},
       {"joints", 360, build_joints, edit_joints},
+      {"lanes", 240, build_lanes, no_edits},
   };
   return scenarios;
 }

@@ -29,12 +29,13 @@ struct Pinned {
 
 // clang-format off
 constexpr Pinned kPinned[] = {
-    {"pyramid",    240, 0xa397655123f1cc9bull, 0x1f64a7588914d9dcull},
-    {"ragdolls",   240, 0x7c5964308419eb9eull, 0x82d1a2725f6dc5a7ull},
+    {"pyramid",    240, 0x2d4e7fe4b093818cull, 0xde0c1470137d82baull},
+    {"ragdolls",   240, 0x63fdb71cfbc3aabbull, 0x51556430c657a7d1ull},
     {"rope_cloth", 240, 0xeb120b8a0ba762a6ull, 0x50a584dbd2b0a6aeull},
-    {"sleep_wake", 480, 0x15c61895081ceeabull, 0x45fddc637a333cb9ull},
-    {"edits",      480, 0x9b3027f5517d9f5bull, 0x2034b63e2fdfc203ull},
-    {"joints",     360, 0x0b51fab67067cb66ull, 0x826464c38da7e3b6ull},
+    {"sleep_wake", 480, 0x14bdaad56224257bull, 0xea154c3e140fe5b8ull},
+    {"edits",      480, 0x27b2d7224d95e693ull, 0x41585b7e9bf44569ull},
+    {"joints",     360, 0xd5e71f01a0f04596ull, 0x1181ba2fdf4e9bd8ull},
+    {"lanes",      240, 0xa44f0a2904236659ull, 0x92e1575548aa20b2ull},
 };
 // clang-format on
 

@@ -1,0 +1,336 @@
+// The soft contact rows of contact_solver.cpp, written once over a lane type V: `double` (one
+// contact at a time) or a GCC/Clang vector of 2 or 4 doubles (that many contacts per
+// instruction). Each lane performs exactly the operations of the scalar path, in the same
+// order: +, -, * and comparisons only, selections written as comparisons (max(a, b) is
+// a < b ? b : a for every V), never a fused multiply-add (the engine builds with
+// -ffp-contract=off, and no file here enables FMA). So every V gives the same bits.
+//
+// Included by contact_kernel.cpp (scalar and 2 lanes, the target's baseline: SSE2 or NEON)
+// and contact_kernel_x4.cpp (4 lanes, built for AVX2 on x86-64). Everything here has internal
+// linkage, so that the two files' copies, built for different instruction sets, never merge.
+#pragma once
+
+#include <cstddef>
+#include <cstring>
+
+#include "contact_lanes.h"
+
+#define FULCRUM_LANE_INLINE inline __attribute__((always_inline))
+
+namespace fulcrum {
+namespace {
+
+typedef double F64x2 __attribute__((vector_size(16)));
+#ifdef FULCRUM_CONTACT_LANES4
+typedef double F64x4 __attribute__((vector_size(32)));
+#endif
+
+template <class V>
+struct Lane;
+
+template <>
+struct Lane<double> {
+  static constexpr int kCount = 1;
+  static FULCRUM_LANE_INLINE double splat(double x) { return x; }
+  static FULCRUM_LANE_INLINE double load(const double* p) { return *p; }
+  static FULCRUM_LANE_INLINE void store(double* p, double v) { *p = v; }
+  static FULCRUM_LANE_INLINE double get(double v, int) { return v; }
+  // Row r (4 doubles at rows[l]) of each lane, transposed: out[j] holds element j of the lanes.
+  static FULCRUM_LANE_INLINE void load_rows(const double* const* rows, double out[4]) {
+    std::memcpy(out, rows[0], 4 * sizeof(double));
+  }
+  static FULCRUM_LANE_INLINE void store_row(const double in[4], int, double* row) {
+    std::memcpy(row, in, 4 * sizeof(double));
+  }
+};
+
+template <>
+struct Lane<F64x2> {
+  static constexpr int kCount = 2;
+  static FULCRUM_LANE_INLINE F64x2 splat(double x) { return F64x2{x, x}; }
+  static FULCRUM_LANE_INLINE F64x2 load(const double* p) {
+    F64x2 v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+  }
+  static FULCRUM_LANE_INLINE void store(double* p, F64x2 v) { std::memcpy(p, &v, sizeof v); }
+  static FULCRUM_LANE_INLINE double get(F64x2 v, int l) { return v[l]; }
+  static FULCRUM_LANE_INLINE void load_rows(const double* const* rows, F64x2 out[4]) {
+    F64x2 a01 = load(rows[0]), a23 = load(rows[0] + 2);
+    F64x2 b01 = load(rows[1]), b23 = load(rows[1] + 2);
+    out[0] = __builtin_shufflevector(a01, b01, 0, 2);
+    out[1] = __builtin_shufflevector(a01, b01, 1, 3);
+    out[2] = __builtin_shufflevector(a23, b23, 0, 2);
+    out[3] = __builtin_shufflevector(a23, b23, 1, 3);
+  }
+  static FULCRUM_LANE_INLINE void store_row(const F64x2 in[4], int l, double* row) {
+    row[0] = in[0][l];
+    row[1] = in[1][l];
+    row[2] = in[2][l];
+    row[3] = in[3][l];
+  }
+};
+
+#ifdef FULCRUM_CONTACT_LANES4  // only in contact_kernel_x4.cpp: 4 lanes change the ABI
+template <>
+struct Lane<F64x4> {
+  static constexpr int kCount = 4;
+  static FULCRUM_LANE_INLINE F64x4 splat(double x) { return F64x4{x, x, x, x}; }
+  static FULCRUM_LANE_INLINE F64x4 load(const double* p) {
+    F64x4 v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+  }
+  static FULCRUM_LANE_INLINE void store(double* p, F64x4 v) { std::memcpy(p, &v, sizeof v); }
+  static FULCRUM_LANE_INLINE double get(F64x4 v, int l) { return v[l]; }
+  static FULCRUM_LANE_INLINE void load_rows(const double* const* rows, F64x4 out[4]) {
+    transpose(load(rows[0]), load(rows[1]), load(rows[2]), load(rows[3]), out);
+  }
+  // Stores lane l of in[0..3] as one row; `in` is the transpose of what load_rows gave.
+  static FULCRUM_LANE_INLINE void store_row(const F64x4 rows[4], int l, double* row) {
+    store(row, rows[l]);
+  }
+  static FULCRUM_LANE_INLINE void transpose(F64x4 r0, F64x4 r1, F64x4 r2, F64x4 r3, F64x4 out[4]) {
+    F64x4 t0 = __builtin_shufflevector(r0, r1, 0, 4, 2, 6);
+    F64x4 t1 = __builtin_shufflevector(r0, r1, 1, 5, 3, 7);
+    F64x4 t2 = __builtin_shufflevector(r2, r3, 0, 4, 2, 6);
+    F64x4 t3 = __builtin_shufflevector(r2, r3, 1, 5, 3, 7);
+    out[0] = __builtin_shufflevector(t0, t2, 0, 1, 4, 5);
+    out[1] = __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
+    out[2] = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
+    out[3] = __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
+  }
+};
+#endif
+
+// std::max's and std::clamp's definitions, lane by lane.
+template <class V>
+FULCRUM_LANE_INLINE V lane_max(V a, V b) {
+  return a < b ? b : a;
+}
+template <class V>
+FULCRUM_LANE_INLINE V lane_clamp(V x, V lo, V hi) {
+  return x < lo ? lo : (hi < x ? hi : x);
+}
+
+// Where a lane's body rows start: the velocity row (vx, vy, w, inv_mass) and, four doubles
+// on, the motion row (dpx, dpy, qc, qs).
+static_assert(offsetof(SolverBody, vy) == offsetof(SolverBody, vx) + 8 &&
+              offsetof(SolverBody, w) == offsetof(SolverBody, vx) + 16 &&
+              offsetof(SolverBody, inv_mass) == offsetof(SolverBody, vx) + 24);
+static_assert(offsetof(SolverBody, dpx) == offsetof(SolverBody, vx) + 32 &&
+              offsetof(SolverBody, dpy) == offsetof(SolverBody, vx) + 40 &&
+              offsetof(SolverBody, qc) == offsetof(SolverBody, vx) + 48 &&
+              offsetof(SolverBody, qs) == offsetof(SolverBody, vx) + 56);
+
+FULCRUM_LANE_INLINE const double* velocity_row(const SolverBody& b) {
+  return &b.vx;
+}
+FULCRUM_LANE_INLINE double* velocity_row(SolverBody& b) {
+  return &b.vx;
+}
+FULCRUM_LANE_INLINE const double* motion_row(const SolverBody& b) {
+  return &b.vx + 4;
+}
+
+// The velocities of a group of lanes' bodies, loaded from and stored to the solver bodies.
+template <class V>
+struct LaneBodies {
+  using L = Lane<V>;
+  static constexpr int kCount = L::kCount;
+  V vax, vay, wa, ima_row;
+  V vbx, vby, wb, imb_row;
+
+  FULCRUM_LANE_INLINE LaneBodies(const ContactBlock& k, int l0, const SolverBody* bodies) {
+    const double* ra[kCount];
+    const double* rb[kCount];
+    for (int l = 0; l < kCount; ++l) {
+      ra[l] = velocity_row(bodies[k.ia[l0 + l]]);
+      rb[l] = velocity_row(bodies[k.ib[l0 + l]]);
+    }
+    V a[4], b[4];
+    L::load_rows(ra, a);
+    L::load_rows(rb, b);
+    vax = a[0], vay = a[1], wa = a[2], ima_row = a[3];
+    vbx = b[0], vby = b[1], wb = b[2], imb_row = b[3];
+  }
+
+  // Only dynamic bodies are written: lanes of one colour share no dynamic body. The row's
+  // fourth element (the inverse mass) is written back as it was read.
+  FULCRUM_LANE_INLINE void store(const ContactBlock& k, int l0, SolverBody* bodies) const {
+    V a[4], b[4];
+    transpose_back({vax, vay, wa, ima_row}, a);
+    transpose_back({vbx, vby, wb, imb_row}, b);
+    for (int l = 0; l < kCount; ++l) {
+      if (k.write_a[l0 + l]) L::store_row(a, l, velocity_row(bodies[k.ia[l0 + l]]));
+      if (k.write_b[l0 + l]) L::store_row(b, l, velocity_row(bodies[k.ib[l0 + l]]));
+    }
+  }
+
+  struct Four {
+    V v[4];
+  };
+  static FULCRUM_LANE_INLINE void transpose_back(const Four& in, V out[4]) {
+    if constexpr (kCount == 4) {
+      L::transpose(in.v[0], in.v[1], in.v[2], in.v[3], out);
+    } else {
+      for (int j = 0; j < 4; ++j) out[j] = in.v[j];
+    }
+  }
+
+  // P applied to B at rb and -P to A at ra.
+  FULCRUM_LANE_INLINE void apply(V ima, V iia, V imb, V iib, V rax, V ray, V rbx, V rby, V px,
+                                 V py) {
+    vax -= ima * px;
+    vay -= ima * py;
+    wa -= iia * (rax * py - ray * px);
+    vbx += imb * px;
+    vby += imb * py;
+    wb += iib * (rbx * py - rby * px);
+  }
+};
+
+// Warm start: the accumulated impulses P = lambda_n n + lambda_t t, t = (ny, -nx).
+template <class V>
+FULCRUM_LANE_INLINE void warm_lanes(ContactBlock& k, int l0, SolverBody* bodies) {
+  using L = Lane<V>;
+  LaneBodies<V> v(k, l0, bodies);
+  const V ima = L::load(k.inv_mass_a + l0), iia = L::load(k.inv_inertia_a + l0);
+  const V imb = L::load(k.inv_mass_b + l0), iib = L::load(k.inv_inertia_b + l0);
+  const V nx = L::load(k.nx + l0), ny = L::load(k.ny + l0);
+  for (const LanePoint& p : k.points) {
+    V ni = L::load(p.normal_impulse + l0), ti = L::load(p.tangent_impulse + l0);
+    V px = ni * nx + ti * ny;
+    V py = ni * ny - ti * nx;
+    v.apply(ima, iia, imb, iib, L::load(p.rax + l0), L::load(p.ray + l0), L::load(p.rbx + l0),
+            L::load(p.rby + l0), px, py);
+  }
+  v.store(k, l0, bodies);
+}
+
+// One pass over a group of lanes: both normal rows, then both friction rows (contact_solver.cpp
+// states the rows). Returns the largest corrective impulse of the lanes.
+template <class V>
+FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, int l0, SolverBody* bodies,
+                                  const LaneRule& rule) {
+  using L = Lane<V>;
+  LaneBodies<V> v(k, l0, bodies);
+  const V zero = L::splat(0.0), one = L::splat(1.0);
+  const V inv_h = L::splat(rule.inv_h), neg_max_speed = L::splat(-rule.max_speed);
+  const V ima = L::load(k.inv_mass_a + l0), iia = L::load(k.inv_inertia_a + l0);
+  const V imb = L::load(k.inv_mass_b + l0), iib = L::load(k.inv_inertia_b + l0);
+  const V nx = L::load(k.nx + l0), ny = L::load(k.ny + l0);
+  const V bias_rate = L::load(k.bias_rate + l0);
+  const V soft_mass_scale = L::load(k.mass_scale + l0);
+  const V soft_impulse_scale = L::load(k.impulse_scale + l0);
+  V largest = zero;
+  for (LanePoint& p : k.points) {
+    const V rax = L::load(p.rax + l0), ray = L::load(p.ray + l0);
+    const V rbx = L::load(p.rbx + l0), rby = L::load(p.rby + l0);
+    const V sep = L::load(p.separation + l0);
+    // Bias: speculative while apart; soft push-out (capped) while overlapping, if this pass
+    // has feedback.
+    V bias, mass_scale, impulse_scale;
+    if (rule.use_bias) {
+      auto apart = sep > zero;
+      bias = apart ? sep * inv_h : lane_max(bias_rate * sep, neg_max_speed);
+      mass_scale = apart ? one : soft_mass_scale;
+      impulse_scale = apart ? zero : soft_impulse_scale;
+    } else {
+      bias = sep > zero ? sep * inv_h : zero;
+      mass_scale = one;
+      impulse_scale = zero;
+    }
+    V dvx = (v.vbx - v.wb * rby) - (v.vax - v.wa * ray);
+    V dvy = (v.vby + v.wb * rbx) - (v.vay + v.wa * rax);
+    V vn = dvx * nx + dvy * ny;
+    V old = L::load(p.normal_impulse + l0);
+    V lambda = -L::load(p.normal_mass + l0) * mass_scale * (vn + bias) - impulse_scale * old;
+    V acc = lane_max(old + lambda, zero);
+    lambda = acc - old;
+    L::store(p.normal_impulse + l0, acc);
+    L::store(p.max_normal_impulse + l0, lane_max(L::load(p.max_normal_impulse + l0), acc));
+    v.apply(ima, iia, imb, iib, rax, ray, rbx, rby, lambda * nx, lambda * ny);
+    largest = lane_max(largest, lane_max(lambda, -lambda));
+  }
+  // Friction along t = (ny, -nx), bounded by the normal impulses just found.
+  const V tx = ny, ty = -nx;
+  const V friction = L::load(k.friction + l0);
+  for (LanePoint& p : k.points) {
+    const V rax = L::load(p.rax + l0), ray = L::load(p.ray + l0);
+    const V rbx = L::load(p.rbx + l0), rby = L::load(p.rby + l0);
+    V dvx = (v.vbx - v.wb * rby) - (v.vax - v.wa * ray);
+    V dvy = (v.vby + v.wb * rbx) - (v.vay + v.wa * rax);
+    V old = L::load(p.tangent_impulse + l0);
+    V lambda = -L::load(p.tangent_mass + l0) * (dvx * tx + dvy * ty);
+    V limit = friction * L::load(p.normal_impulse + l0);
+    V acc = lane_clamp(old + lambda, -limit, limit);
+    lambda = acc - old;
+    L::store(p.tangent_impulse + l0, acc);
+    v.apply(ima, iia, imb, iib, rax, ray, rbx, rby, lambda * tx, lambda * ty);
+    largest = lane_max(largest, lane_max(lambda, -lambda));
+  }
+  v.store(k, l0, bodies);
+  return largest;
+}
+
+// Separation now, from the bodies' motion since the tick began (anchors turned with them).
+template <class V>
+FULCRUM_LANE_INLINE void separation_lanes(ContactBlock& k, int l0, const SolverBody* bodies) {
+  using L = Lane<V>;
+  const double* ra[L::kCount];
+  const double* rb[L::kCount];
+  for (int l = 0; l < L::kCount; ++l) {
+    ra[l] = motion_row(bodies[k.ia[l0 + l]]);
+    rb[l] = motion_row(bodies[k.ib[l0 + l]]);
+  }
+  V a[4], b[4];
+  L::load_rows(ra, a);
+  L::load_rows(rb, b);
+  const V ddx = b[0] - a[0], ddy = b[1] - a[1];
+  const V qca = a[2], qsa = a[3], qcb = b[2], qsb = b[3];
+  const V nx = L::load(k.nx + l0), ny = L::load(k.ny + l0);
+  for (LanePoint& p : k.points) {
+    const V rax = L::load(p.rax + l0), ray = L::load(p.ray + l0);
+    const V rbx = L::load(p.rbx + l0), rby = L::load(p.rby + l0);
+    V ax = qca * rax - qsa * ray, ay = qsa * rax + qca * ray;
+    V bx = qcb * rbx - qsb * rby, by = qsb * rbx + qcb * rby;
+    V dx = ddx + (bx - ax), dy = ddy + (by - ay);
+    L::store(p.separation + l0, dx * nx + dy * ny + L::load(p.base_separation + l0));
+  }
+}
+
+// Blocks [first, end) of one colour (or, for the scalar path, any blocks in order).
+template <class V>
+double solve_blocks(ContactBlock* blocks, int first, int end, SolverBody* bodies,
+                    const LaneRule& rule) {
+  using L = Lane<V>;
+  V largest = L::splat(0.0);
+  for (int k = first; k < end; ++k) {
+    for (int l0 = 0; l0 < kBlockLanes; l0 += L::kCount) {
+      largest = lane_max(largest, solve_lanes<V>(blocks[k], l0, bodies, rule));
+    }
+  }
+  double out = L::get(largest, 0);
+  for (int l = 1; l < L::kCount; ++l) out = lane_max(out, L::get(largest, l));
+  return out;
+}
+
+template <class V>
+void separation_blocks(ContactBlock* blocks, int first, int end, const SolverBody* bodies) {
+  for (int k = first; k < end; ++k) {
+    for (int l0 = 0; l0 < kBlockLanes; l0 += Lane<V>::kCount) {
+      separation_lanes<V>(blocks[k], l0, bodies);
+    }
+  }
+}
+
+template <class V>
+void warm_blocks(ContactBlock* blocks, int first, int end, SolverBody* bodies) {
+  for (int k = first; k < end; ++k) {
+    for (int l0 = 0; l0 < kBlockLanes; l0 += Lane<V>::kCount) warm_lanes<V>(blocks[k], l0, bodies);
+  }
+}
+
+}  // namespace
+}  // namespace fulcrum

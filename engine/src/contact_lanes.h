@@ -1,0 +1,103 @@
+// Soft contacts solved colour by colour, several contacts per instruction.
+//
+// Graph colouring: each tick the touching contacts are given colours in contact id order, the
+// lowest colour in which neither of the contact's dynamic bodies is used yet (static and
+// kinematic bodies do not count: the solver never changes their velocity). Contacts of one
+// colour share no body the solver writes, so they can be solved in any order, in lanes or on
+// several threads, and the result is the same bits. Contacts that fit no colour go to an
+// overflow set, solved one by one in id order after the colours.
+//
+// Layout: each colour's contacts (in id order) fill blocks of kBlockLanes lanes, structure of
+// arrays inside a block; the last block of a colour is padded with empty lanes (static body on
+// both sides, zero masses), which change nothing. The layout depends on neither the
+// instruction path nor the thread count: a 2-lane path takes a block in two halves, the scalar
+// path lane by lane.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "contact_solver.h"
+#include "fulcrum/simd.h"
+
+namespace fulcrum {
+
+inline constexpr int kBlockLanes = 4;
+inline constexpr int kMaxColours = 24;
+
+// One contact point's rows, one lane per contact.
+struct alignas(32) LanePoint {
+  double rax[kBlockLanes], ray[kBlockLanes];  // anchor relative to A's centre, tick start
+  double rbx[kBlockLanes], rby[kBlockLanes];
+  double base_separation[kBlockLanes];
+  double separation[kBlockLanes];  // now: refreshed whenever the bodies move (update_separations)
+  double normal_mass[kBlockLanes];
+  double tangent_mass[kBlockLanes];
+  double normal_impulse[kBlockLanes];  // accumulated
+  double tangent_impulse[kBlockLanes];
+  double max_normal_impulse[kBlockLanes];
+};
+
+struct alignas(32) ContactBlock {
+  double inv_mass_a[kBlockLanes], inv_inertia_a[kBlockLanes];
+  double inv_mass_b[kBlockLanes], inv_inertia_b[kBlockLanes];
+  double nx[kBlockLanes], ny[kBlockLanes];
+  double friction[kBlockLanes];
+  double bias_rate[kBlockLanes], mass_scale[kBlockLanes], impulse_scale[kBlockLanes];
+  LanePoint points[2];                       // a one-point manifold's second point has zero masses
+  int32_t ia[kBlockLanes], ib[kBlockLanes];  // solver body slots (0: the static body)
+  // Whether the solver writes body A / B back (dynamic bodies only).
+  uint8_t write_a[kBlockLanes], write_b[kBlockLanes];
+};
+
+// What one pass needs besides the blocks.
+struct LaneRule {
+  double inv_h = 0.0;
+  double max_speed = 0.0;  // cap on push-out speed
+  bool use_bias = true;    // position feedback in this pass
+};
+
+// The coloured blocks of one tick. Blocks [colour_start[c], colour_start[c + 1]) hold colour
+// c; blocks from colour_start[colours] on hold the overflow, `overflow` lanes in id order.
+struct ColouredContacts {
+  std::vector<ContactBlock> blocks;
+  std::vector<int> colour_start;
+  int colours = 0;
+  int overflow = 0;
+  std::vector<int> lane_of_row;    // row -> block * kBlockLanes + lane
+  std::vector<uint32_t> body_use;  // scratch: colours used per solver body
+};
+
+// Colours rows[0, n) of `s` (prepared, in id order) and packs them into blocks.
+void colour_contacts(const SolverScratch& s, ColouredContacts* out);
+// Copies the accumulated impulses back into the rows (for restitution and storage).
+void unpack_impulses(const ColouredContacts& cc, SolverScratch* s);
+
+// Lanes [first, first + count) of blocks, for each path. Each returns the largest corrective
+// impulse. Declared per path so that the 4-lane path can live in a file built for AVX2.
+namespace lanes {
+using SolveFn = double (*)(ContactBlock* blocks, int first_block, int end_block, SolverBody* bodies,
+                           const LaneRule& rule);
+using WarmFn = void (*)(ContactBlock* blocks, int first_block, int end_block, SolverBody* bodies);
+using SeparationFn = void (*)(ContactBlock* blocks, int first_block, int end_block,
+                              const SolverBody* bodies);
+double solve_scalar(ContactBlock*, int, int, SolverBody*, const LaneRule&);
+void warm_scalar(ContactBlock*, int, int, SolverBody*);
+void separation_scalar(ContactBlock*, int, int, const SolverBody*);
+double solve_x2(ContactBlock*, int, int, SolverBody*, const LaneRule&);
+void warm_x2(ContactBlock*, int, int, SolverBody*);
+void separation_x2(ContactBlock*, int, int, const SolverBody*);
+double solve_x4(ContactBlock*, int, int, SolverBody*, const LaneRule&);
+void warm_x4(ContactBlock*, int, int, SolverBody*);
+void separation_x4(ContactBlock*, int, int, const SolverBody*);
+}  // namespace lanes
+
+// The current separation of every lane's points, from the bodies' motion since the tick began;
+// called once the blocks are packed and after every position update.
+void update_separations(ColouredContacts& cc, const SolverBody* bodies);
+
+// One pass (solve or warm start) over every colour, then the overflow one lane at a time.
+double solve_coloured(ColouredContacts& cc, SolverBody* bodies, const LaneRule& rule);
+void warm_start_coloured(ColouredContacts& cc, SolverBody* bodies);
+
+}  // namespace fulcrum

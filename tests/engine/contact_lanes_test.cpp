@@ -1,0 +1,157 @@
+// The coloured contact lanes (engine/src/contact_lanes.h): the colouring's invariants, which
+// make any order within a colour (lanes, threads) give the same bits, and the instruction paths'
+// equality on scenes with every kind of lane (two-point and one-point manifolds, static and
+// kinematic partners, padding, overflow).
+#include <gtest/gtest.h>
+
+#include <set>
+#include <vector>
+
+#include "contact_lanes.h"
+#include "fulcrum/simd.h"
+#include "scene_fixture.h"
+#include "world_impl.h"
+
+namespace fulcrum::testing {
+namespace {
+
+// A plank on the ground carrying `balls` balls: the plank touches balls + 1 bodies.
+SceneDef loaded_plank(int balls) {
+  SceneDef s;
+  scenes::add_ground(&s, 40.0);
+  SceneBody plank;
+  plank.def.type = BodyType::kDynamic;
+  plank.def.position = Vec2(0.0, 0.1);
+  ShapeDef board;
+  board.geometry = make_box(0.5 * balls, 0.1);
+  plank.shapes.push_back(board);
+  s.bodies.push_back(plank);
+  for (int i = 0; i < balls; ++i) {
+    SceneBody ball;
+    ball.def.type = BodyType::kDynamic;
+    ball.def.position = Vec2(-0.5 * balls + 0.5 + i, 0.6);
+    ShapeDef shape;
+    shape.geometry = Circle{Vec2::Zero(), 0.4};
+    ball.shapes.push_back(shape);
+    s.bodies.push_back(ball);
+  }
+  return s;
+}
+
+SceneDef pyramid(int base) {
+  SceneDef s;
+  scenes::add_ground(&s, 40.0);
+  scenes::PyramidOptions p;
+  p.base = base;
+  scenes::add_pyramid(&s, p);
+  return s;
+}
+
+// Checks the last tick's colouring of `w` (its world state after the tick is unchanged).
+void expect_valid_colouring(const World& w) {
+  const WorldImpl& impl = w.impl();
+  const ColouredContacts& cc = impl.coloured_contacts;
+  const SolverScratch& s = impl.solver_scratch;
+  ASSERT_EQ(cc.lane_of_row.size(), s.rows.size());
+  ASSERT_EQ(static_cast<int>(cc.colour_start.size()), cc.colours + 1);
+  // Every row has its own lane, holding its bodies.
+  std::set<int> lanes_used(cc.lane_of_row.begin(), cc.lane_of_row.end());
+  EXPECT_EQ(lanes_used.size(), s.rows.size());
+  for (size_t k = 0; k < s.rows.size(); ++k) {
+    const int lane = cc.lane_of_row[k];
+    const ContactBlock& b = cc.blocks[lane / kBlockLanes];
+    EXPECT_EQ(b.ia[lane % kBlockLanes], s.rows[k].ia);
+    EXPECT_EQ(b.ib[lane % kBlockLanes], s.rows[k].ib);
+  }
+  // Within a colour, every body the solver writes is written by one lane only; only dynamic
+  // bodies are written.
+  for (int c = 0; c < cc.colours; ++c) {
+    std::set<int> written;
+    for (int k = cc.colour_start[c]; k < cc.colour_start[c + 1]; ++k) {
+      const ContactBlock& b = cc.blocks[k];
+      for (int l = 0; l < kBlockLanes; ++l) {
+        for (auto [slot, write] :
+             {std::pair{b.ia[l], b.write_a[l]}, std::pair{b.ib[l], b.write_b[l]}}) {
+          EXPECT_EQ(write != 0, s.bodies[slot].inv_mass > 0.0);
+          if (write) {
+            EXPECT_TRUE(written.insert(slot).second) << "colour " << c << " slot " << slot;
+          }
+        }
+      }
+    }
+  }
+}
+
+TEST(ContactLanes, ColoursNeverShareADynamicBody) {
+  World w = build(pyramid(20));
+  for (int i = 0; i < 30; ++i) w.step();
+  const ColouredContacts& cc = w.impl().coloured_contacts;
+  // 210 boxes, about 2 contacts each: many blocks, no overflow (a box touches at most 6).
+  EXPECT_GT(w.impl().solver_scratch.rows.size(), 300u);
+  EXPECT_EQ(cc.overflow, 0);
+  expect_valid_colouring(w);
+}
+
+TEST(ContactLanes, ABodyWithMoreContactsThanColoursOverflows) {
+  World w = build(loaded_plank(40));
+  for (int i = 0; i < 10; ++i) w.step();
+  const ColouredContacts& cc = w.impl().coloured_contacts;
+  // The plank touches 40 balls and the ground: 41 contacts, at most kMaxColours coloured.
+  EXPECT_EQ(w.impl().solver_scratch.rows.size(), 41u);
+  EXPECT_EQ(cc.overflow, 41 - kMaxColours);
+  expect_valid_colouring(w);
+  // The overflow is solved one by one like any other row: the balls rest on the plank.
+  for (int i = 0; i < 120; ++i) w.step();
+  EXPECT_LT(w.metrics().max_penetration, 0.01);
+  EXPECT_LT(w.metrics().max_speed, 0.05);
+}
+
+// Every path this CPU runs gives the scalar path's state hash at every tick.
+void expect_paths_agree(const SceneDef& scene, int ticks) {
+  std::vector<std::vector<uint64_t>> runs;
+  for (SimdPath path : supported_simd_paths()) {
+    ASSERT_TRUE(set_simd_path(path).ok());
+    EXPECT_EQ(active_simd_path(), path);
+    World w = build(scene);
+    std::vector<uint64_t> hashes;
+    for (int i = 0; i < ticks; ++i) {
+      w.step();
+      hashes.push_back(w.state_hash());
+    }
+    runs.push_back(hashes);
+  }
+  ASSERT_TRUE(set_simd_path(SimdPath::kAuto).ok());
+  ASSERT_GE(runs.size(), 2u);  // scalar and the 2-lane baseline at least
+  for (size_t p = 1; p < runs.size(); ++p) {
+    for (int i = 0; i < ticks; ++i) {
+      ASSERT_EQ(runs[p][i], runs[0][i])
+          << simd_path_name(supported_simd_paths()[p]) << " differs from scalar at tick " << i + 1;
+    }
+  }
+}
+
+TEST(ContactLanes, EveryPathGivesTheScalarBits) {
+  expect_paths_agree(pyramid(12), 120);
+  expect_paths_agree(loaded_plank(40), 60);
+}
+
+TEST(ContactLanes, PathNamesParseAndUnsupportedPathsAreRefused) {
+  for (SimdPath p : {SimdPath::kAuto, SimdPath::kScalar, SimdPath::kLanes2, SimdPath::kLanes4}) {
+    Result<SimdPath> parsed = parse_simd_path(simd_path_name(p));
+    ASSERT_TRUE(parsed.ok());
+    EXPECT_EQ(*parsed, p);
+  }
+  Result<SimdPath> bad = parse_simd_path("avx512");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.status().message().find("avx512"), std::string::npos);
+  // The scalar and 2-lane paths run on every CPU Fulcrum builds for.
+  std::vector<SimdPath> supported = supported_simd_paths();
+  ASSERT_GE(supported.size(), 2u);
+  EXPECT_EQ(supported[0], SimdPath::kScalar);
+  EXPECT_EQ(supported[1], SimdPath::kLanes2);
+  ASSERT_TRUE(set_simd_path(SimdPath::kAuto).ok());
+  EXPECT_NE(active_simd_path(), SimdPath::kAuto);  // auto resolves to a path this CPU runs
+}
+
+}  // namespace
+}  // namespace fulcrum::testing
