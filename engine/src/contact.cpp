@@ -50,17 +50,7 @@ bool overlapping(const Manifold& m) {
 }  // namespace
 
 bool WorldImpl::has_contact(int sa, int sb) const {
-  // Walk the shorter of the two bodies' lists: a body holding many others (a ground, a
-  // container) would otherwise make every new pair cost its whole list.
-  const Body& body_a = bodies[shapes[sa].body];
-  const Body& body_b = bodies[shapes[sb].body];
-  const Body& b = body_a.contact_count <= body_b.contact_count ? body_a : body_b;
-  for (int e = b.contact_list; e != kNullIndex;) {
-    const Contact& c = contacts[edge_contact(e)];
-    if ((c.shape_a == sa && c.shape_b == sb) || (c.shape_a == sb && c.shape_b == sa)) return true;
-    e = c.edges[edge_side(e)].next;
-  }
-  return false;
+  return contact_pairs.count(pair_key(sa, sb)) != 0;
 }
 
 void WorldImpl::create_contact(int sa, int sb) {
@@ -90,6 +80,7 @@ void WorldImpl::create_contact(int sa, int sb) {
   c.restitution = std::max(shapes[sa].restitution, shapes[sb].restitution);
   link_edge(contacts, bodies, ci, 0, c.body_a);
   link_edge(contacts, bodies, ci, 1, c.body_b);
+  contact_pairs.emplace(pair_key(sa, sb), ci);
 }
 
 void WorldImpl::destroy_contact(int ci, bool report_end) {
@@ -105,6 +96,7 @@ void WorldImpl::destroy_contact(int ci, bool report_end) {
   }
   unlink_edge(contacts, bodies, ci, 0, c.body_a);
   unlink_edge(contacts, bodies, ci, 1, c.body_b);
+  contact_pairs.erase(pair_key(c.shape_a, c.shape_b));
   c.alive = false;
   free_contacts.push_back(ci);
 }
@@ -131,17 +123,31 @@ void WorldImpl::collide_round(size_t first, size_t end) {
   // id order.
   std::vector<int>& list = scratch_contacts;
   list.clear();
-  for (size_t k = first; k < end; ++k) {
-    for (int e = bodies[awake_bodies[k]].contact_list; e != kNullIndex;) {
-      Contact& c = contacts[edge_contact(e)];
-      if (c.stamp != step_stamp) {
+  if (first == 0 && 2 * end >= static_cast<size_t>(body_count)) {
+    // Most bodies awake: one pass over the contact pool, in id order, is cheaper than walking
+    // every awake body's list and sorting, and finds the same contacts (those with an awake
+    // body, the first round's bodies being all the awake ones).
+    for (size_t ci = 0; ci < contacts.size(); ++ci) {
+      Contact& c = contacts[ci];
+      if (!c.alive || c.stamp == step_stamp) continue;
+      if (bodies[c.body_a].awake || bodies[c.body_b].awake) {
         c.stamp = step_stamp;
-        list.push_back(edge_contact(e));
+        list.push_back(static_cast<int>(ci));
       }
-      e = c.edges[edge_side(e)].next;
     }
+  } else {
+    for (size_t k = first; k < end; ++k) {
+      for (int e = bodies[awake_bodies[k]].contact_list; e != kNullIndex;) {
+        Contact& c = contacts[edge_contact(e)];
+        if (c.stamp != step_stamp) {
+          c.stamp = step_stamp;
+          list.push_back(edge_contact(e));
+        }
+        e = c.edges[edge_side(e)].next;
+      }
+    }
+    std::sort(list.begin(), list.end());
   }
-  std::sort(list.begin(), list.end());
 
   const double speculative = settings.speculative_distance;
   for (int ci : list) {

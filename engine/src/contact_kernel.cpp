@@ -185,16 +185,11 @@ void colour_contacts(const SolverScratch& s, ColouredContacts* out) {
     b.ib[l] = row.ib;
     b.write_a[l] = a.inv_mass > 0.0;
     b.write_b[l] = bb.inv_mass > 0.0;
-    b.inv_mass_a[l] = a.inv_mass;
     b.inv_inertia_a[l] = a.inv_inertia;
-    b.inv_mass_b[l] = bb.inv_mass;
     b.inv_inertia_b[l] = bb.inv_inertia;
     b.nx[l] = row.nx;
     b.ny[l] = row.ny;
     b.friction[l] = row.friction;
-    b.bias_rate[l] = row.softness.bias_rate;
-    b.mass_scale[l] = row.softness.mass_scale;
-    b.impulse_scale[l] = row.softness.impulse_scale;
     for (int i = 0; i < row.count; ++i) {
       const ContactPointRow& p = row.points[i];
       LanePoint& q = b.points[i];

@@ -25,6 +25,9 @@ typedef double F64x2 __attribute__((vector_size(16)));
 typedef double F64x4 __attribute__((vector_size(32)));
 #endif
 
+// Lane<V>: loads, stores, and the transposed access to body rows. load_rows reads four
+// doubles at rows[l] for each lane l and returns them as four vectors (element j of every
+// lane); store_rows does the reverse, skipping lanes whose row pointer is null.
 template <class V>
 struct Lane;
 
@@ -35,12 +38,11 @@ struct Lane<double> {
   static FULCRUM_LANE_INLINE double load(const double* p) { return *p; }
   static FULCRUM_LANE_INLINE void store(double* p, double v) { *p = v; }
   static FULCRUM_LANE_INLINE double get(double v, int) { return v; }
-  // Row r (4 doubles at rows[l]) of each lane, transposed: out[j] holds element j of the lanes.
   static FULCRUM_LANE_INLINE void load_rows(const double* const* rows, double out[4]) {
     std::memcpy(out, rows[0], 4 * sizeof(double));
   }
-  static FULCRUM_LANE_INLINE void store_row(const double in[4], int, double* row) {
-    std::memcpy(row, in, 4 * sizeof(double));
+  static FULCRUM_LANE_INLINE void store_rows(const double in[4], double* const* rows) {
+    if (rows[0] != nullptr) std::memcpy(rows[0], in, 4 * sizeof(double));
   }
 };
 
@@ -63,42 +65,57 @@ struct Lane<F64x2> {
     out[2] = __builtin_shufflevector(a23, b23, 0, 2);
     out[3] = __builtin_shufflevector(a23, b23, 1, 3);
   }
-  static FULCRUM_LANE_INLINE void store_row(const F64x2 in[4], int l, double* row) {
-    row[0] = in[0][l];
-    row[1] = in[1][l];
-    row[2] = in[2][l];
-    row[3] = in[3][l];
+  static FULCRUM_LANE_INLINE void store_rows(const F64x2 in[4], double* const* rows) {
+    F64x2 r0 = __builtin_shufflevector(in[0], in[1], 0, 2);  // lane 0: elements 0, 1
+    F64x2 r1 = __builtin_shufflevector(in[2], in[3], 0, 2);  // lane 0: elements 2, 3
+    F64x2 s0 = __builtin_shufflevector(in[0], in[1], 1, 3);  // lane 1
+    F64x2 s1 = __builtin_shufflevector(in[2], in[3], 1, 3);
+    if (rows[0] != nullptr) {
+      store(rows[0], r0);
+      store(rows[0] + 2, r1);
+    }
+    if (rows[1] != nullptr) {
+      store(rows[1], s0);
+      store(rows[1] + 2, s1);
+    }
   }
 };
 
-#ifdef FULCRUM_CONTACT_LANES4  // only in contact_kernel_x4.cpp: 4 lanes change the ABI
+#ifdef FULCRUM_CONTACT_LANES4  // only in contact_kernel_x4.cpp: wide vectors change the ABI
+// Four rows of four doubles, transposed (an involution).
+FULCRUM_LANE_INLINE void transpose4(F64x4 r0, F64x4 r1, F64x4 r2, F64x4 r3, F64x4 out[4]) {
+  F64x4 t0 = __builtin_shufflevector(r0, r1, 0, 4, 2, 6);
+  F64x4 t1 = __builtin_shufflevector(r0, r1, 1, 5, 3, 7);
+  F64x4 t2 = __builtin_shufflevector(r2, r3, 0, 4, 2, 6);
+  F64x4 t3 = __builtin_shufflevector(r2, r3, 1, 5, 3, 7);
+  out[0] = __builtin_shufflevector(t0, t2, 0, 1, 4, 5);
+  out[1] = __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
+  out[2] = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
+  out[3] = __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
+}
+
+FULCRUM_LANE_INLINE F64x4 load4(const double* p) {
+  F64x4 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+
 template <>
 struct Lane<F64x4> {
   static constexpr int kCount = 4;
   static FULCRUM_LANE_INLINE F64x4 splat(double x) { return F64x4{x, x, x, x}; }
-  static FULCRUM_LANE_INLINE F64x4 load(const double* p) {
-    F64x4 v;
-    std::memcpy(&v, p, sizeof v);
-    return v;
-  }
+  static FULCRUM_LANE_INLINE F64x4 load(const double* p) { return load4(p); }
   static FULCRUM_LANE_INLINE void store(double* p, F64x4 v) { std::memcpy(p, &v, sizeof v); }
   static FULCRUM_LANE_INLINE double get(F64x4 v, int l) { return v[l]; }
   static FULCRUM_LANE_INLINE void load_rows(const double* const* rows, F64x4 out[4]) {
-    transpose(load(rows[0]), load(rows[1]), load(rows[2]), load(rows[3]), out);
+    transpose4(load4(rows[0]), load4(rows[1]), load4(rows[2]), load4(rows[3]), out);
   }
-  // Stores lane l of in[0..3] as one row; `in` is the transpose of what load_rows gave.
-  static FULCRUM_LANE_INLINE void store_row(const F64x4 rows[4], int l, double* row) {
-    store(row, rows[l]);
-  }
-  static FULCRUM_LANE_INLINE void transpose(F64x4 r0, F64x4 r1, F64x4 r2, F64x4 r3, F64x4 out[4]) {
-    F64x4 t0 = __builtin_shufflevector(r0, r1, 0, 4, 2, 6);
-    F64x4 t1 = __builtin_shufflevector(r0, r1, 1, 5, 3, 7);
-    F64x4 t2 = __builtin_shufflevector(r2, r3, 0, 4, 2, 6);
-    F64x4 t3 = __builtin_shufflevector(r2, r3, 1, 5, 3, 7);
-    out[0] = __builtin_shufflevector(t0, t2, 0, 1, 4, 5);
-    out[1] = __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
-    out[2] = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
-    out[3] = __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
+  static FULCRUM_LANE_INLINE void store_rows(const F64x4 in[4], double* const* rows) {
+    F64x4 out[4];
+    transpose4(in[0], in[1], in[2], in[3], out);
+    for (int l = 0; l < 4; ++l) {
+      if (rows[l] != nullptr) store(rows[l], out[l]);
+    }
   }
 };
 #endif
@@ -158,24 +175,16 @@ struct LaneBodies {
   // Only dynamic bodies are written: lanes of one colour share no dynamic body. The row's
   // fourth element (the inverse mass) is written back as it was read.
   FULCRUM_LANE_INLINE void store(const ContactBlock& k, int l0, SolverBody* bodies) const {
-    V a[4], b[4];
-    transpose_back({vax, vay, wa, ima_row}, a);
-    transpose_back({vbx, vby, wb, imb_row}, b);
+    double* ra[kCount];
+    double* rb[kCount];
     for (int l = 0; l < kCount; ++l) {
-      if (k.write_a[l0 + l]) L::store_row(a, l, velocity_row(bodies[k.ia[l0 + l]]));
-      if (k.write_b[l0 + l]) L::store_row(b, l, velocity_row(bodies[k.ib[l0 + l]]));
+      ra[l] = k.write_a[l0 + l] ? velocity_row(bodies[k.ia[l0 + l]]) : nullptr;
+      rb[l] = k.write_b[l0 + l] ? velocity_row(bodies[k.ib[l0 + l]]) : nullptr;
     }
-  }
-
-  struct Four {
-    V v[4];
-  };
-  static FULCRUM_LANE_INLINE void transpose_back(const Four& in, V out[4]) {
-    if constexpr (kCount == 4) {
-      L::transpose(in.v[0], in.v[1], in.v[2], in.v[3], out);
-    } else {
-      for (int j = 0; j < 4; ++j) out[j] = in.v[j];
-    }
+    const V a[4] = {vax, vay, wa, ima_row};
+    const V b[4] = {vbx, vby, wb, imb_row};
+    L::store_rows(a, ra);
+    L::store_rows(b, rb);
   }
 
   // P applied to B at rb and -P to A at ra.
@@ -195,8 +204,8 @@ template <class V>
 FULCRUM_LANE_INLINE void warm_lanes(ContactBlock& k, int l0, SolverBody* bodies) {
   using L = Lane<V>;
   LaneBodies<V> v(k, l0, bodies);
-  const V ima = L::load(k.inv_mass_a + l0), iia = L::load(k.inv_inertia_a + l0);
-  const V imb = L::load(k.inv_mass_b + l0), iib = L::load(k.inv_inertia_b + l0);
+  const V ima = v.ima_row, iia = L::load(k.inv_inertia_a + l0);
+  const V imb = v.imb_row, iib = L::load(k.inv_inertia_b + l0);
   const V nx = L::load(k.nx + l0), ny = L::load(k.ny + l0);
   for (const LanePoint& p : k.points) {
     V ni = L::load(p.normal_impulse + l0), ti = L::load(p.tangent_impulse + l0);
@@ -217,12 +226,16 @@ FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, int l0, SolverBody* bodies,
   LaneBodies<V> v(k, l0, bodies);
   const V zero = L::splat(0.0), one = L::splat(1.0);
   const V inv_h = L::splat(rule.inv_h), neg_max_speed = L::splat(-rule.max_speed);
-  const V ima = L::load(k.inv_mass_a + l0), iia = L::load(k.inv_inertia_a + l0);
-  const V imb = L::load(k.inv_mass_b + l0), iib = L::load(k.inv_inertia_b + l0);
+  const V ima = v.ima_row, iia = L::load(k.inv_inertia_a + l0);
+  const V imb = v.imb_row, iib = L::load(k.inv_inertia_b + l0);
   const V nx = L::load(k.nx + l0), ny = L::load(k.ny + l0);
-  const V bias_rate = L::load(k.bias_rate + l0);
-  const V soft_mass_scale = L::load(k.mass_scale + l0);
-  const V soft_impulse_scale = L::load(k.impulse_scale + l0);
+  // Contacts with a body of infinite mass take the stiffer softness (as prepare() chose it).
+  const auto fixed = (ima == zero) | (imb == zero);
+  const V bias_rate = fixed ? L::splat(rule.static_soft.bias_rate) : L::splat(rule.soft.bias_rate);
+  const V soft_mass_scale =
+      fixed ? L::splat(rule.static_soft.mass_scale) : L::splat(rule.soft.mass_scale);
+  const V soft_impulse_scale =
+      fixed ? L::splat(rule.static_soft.impulse_scale) : L::splat(rule.soft.impulse_scale);
   V largest = zero;
   for (LanePoint& p : k.points) {
     const V rax = L::load(p.rax + l0), ray = L::load(p.ray + l0);
@@ -249,7 +262,9 @@ FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, int l0, SolverBody* bodies,
     V acc = lane_max(old + lambda, zero);
     lambda = acc - old;
     L::store(p.normal_impulse + l0, acc);
-    L::store(p.max_normal_impulse + l0, lane_max(L::load(p.max_normal_impulse + l0), acc));
+    if (rule.track_max) {
+      L::store(p.max_normal_impulse + l0, lane_max(L::load(p.max_normal_impulse + l0), acc));
+    }
     v.apply(ima, iia, imb, iib, rax, ray, rbx, rby, lambda * nx, lambda * ny);
     largest = lane_max(largest, lane_max(lambda, -lambda));
   }
@@ -307,6 +322,16 @@ double solve_blocks(ContactBlock* blocks, int first, int end, SolverBody* bodies
   using L = Lane<V>;
   V largest = L::splat(0.0);
   for (int k = first; k < end; ++k) {
+    // The next block's body slots, and its bodies' velocity rows, are the first things the
+    // next iteration needs; fetch them while this block is solved.
+    if (k + 1 < end) {
+      const ContactBlock& next = blocks[k + 1];
+      __builtin_prefetch(&next);
+      for (int l = 0; l < kBlockLanes; ++l) {
+        __builtin_prefetch(&bodies[next.ia[l]]);
+        __builtin_prefetch(&bodies[next.ib[l]]);
+      }
+    }
     for (int l0 = 0; l0 < kBlockLanes; l0 += L::kCount) {
       largest = lane_max(largest, solve_lanes<V>(blocks[k], l0, bodies, rule));
     }

@@ -1,6 +1,6 @@
 // The 4-lane contact path. On x86-64 this file alone is built with -mavx2 (and never -mfma) and
 // runs only when the CPU has AVX2; elsewhere it is built for the baseline, where the compiler
-// splits each 4-lane operation into narrower ones with the same per-lane results.
+// splits each vector operation into narrower ones with the same per-lane results.
 #define FULCRUM_CONTACT_LANES4 1
 #include "contact_kernel.h"
 

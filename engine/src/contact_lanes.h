@@ -22,32 +22,33 @@
 
 namespace fulcrum {
 
-inline constexpr int kBlockLanes = 4;
+inline constexpr int kBlockLanes = 8;
 inline constexpr int kMaxColours = 24;
 
-// One contact point's rows, one lane per contact.
-struct alignas(32) LanePoint {
+// One contact point's rows, one lane per contact; with 8 lanes each array is one cache line.
+// What every pass reads comes first.
+struct alignas(64) LanePoint {
   double rax[kBlockLanes], ray[kBlockLanes];  // anchor relative to A's centre, tick start
   double rbx[kBlockLanes], rby[kBlockLanes];
-  double base_separation[kBlockLanes];
   double separation[kBlockLanes];  // now: refreshed whenever the bodies move (update_separations)
   double normal_mass[kBlockLanes];
   double tangent_mass[kBlockLanes];
   double normal_impulse[kBlockLanes];  // accumulated
   double tangent_impulse[kBlockLanes];
-  double max_normal_impulse[kBlockLanes];
+  double max_normal_impulse[kBlockLanes];  // tracked only when restitution needs it
+  double base_separation[kBlockLanes];
 };
 
-struct alignas(32) ContactBlock {
-  double inv_mass_a[kBlockLanes], inv_inertia_a[kBlockLanes];
-  double inv_mass_b[kBlockLanes], inv_inertia_b[kBlockLanes];
-  double nx[kBlockLanes], ny[kBlockLanes];
-  double friction[kBlockLanes];
-  double bias_rate[kBlockLanes], mass_scale[kBlockLanes], impulse_scale[kBlockLanes];
-  LanePoint points[2];                       // a one-point manifold's second point has zero masses
+// The inverse masses are not here: the lanes read them with the bodies' velocities. Nor is the
+// softness: it is one of two per tick (LaneRule), chosen by whether a body has infinite mass.
+struct alignas(64) ContactBlock {
   int32_t ia[kBlockLanes], ib[kBlockLanes];  // solver body slots (0: the static body)
   // Whether the solver writes body A / B back (dynamic bodies only).
   uint8_t write_a[kBlockLanes], write_b[kBlockLanes];
+  double inv_inertia_a[kBlockLanes], inv_inertia_b[kBlockLanes];
+  double nx[kBlockLanes], ny[kBlockLanes];
+  double friction[kBlockLanes];
+  LanePoint points[2];  // a one-point manifold's second point has zero masses
 };
 
 // What one pass needs besides the blocks.
@@ -55,6 +56,9 @@ struct LaneRule {
   double inv_h = 0.0;
   double max_speed = 0.0;  // cap on push-out speed
   bool use_bias = true;    // position feedback in this pass
+  bool track_max = false;  // keep each point's largest normal impulse (for restitution)
+  Softness soft;           // between two dynamic bodies
+  Softness static_soft;    // with a body of infinite mass (static, kinematic)
 };
 
 // The coloured blocks of one tick. Blocks [colour_start[c], colour_start[c + 1]) hold colour

@@ -82,6 +82,17 @@ inline double current_separation(const SolverBody& a, const SolverBody& b, const
 // Gathers the awake, touching, solid contacts in id order.
 void gather_contacts(WorldImpl& w, const std::vector<int>& awake, std::vector<int>* out) {
   out->clear();
+  if (2 * awake.size() >= static_cast<size_t>(w.body_count)) {
+    // Most bodies awake: one pass over the pool finds the same contacts, already in id order.
+    for (size_t ci = 0; ci < w.contacts.size(); ++ci) {
+      const Contact& c = w.contacts[ci];
+      if (c.alive && c.touching && !c.sensor &&
+          (w.bodies[c.body_a].awake || w.bodies[c.body_b].awake)) {
+        out->push_back(static_cast<int>(ci));
+      }
+    }
+    return;
+  }
   for (int bi : awake) {
     for (int e = w.bodies[bi].contact_list; e != kNullIndex;) {
       int ci = edge_contact(e);
@@ -555,8 +566,14 @@ void WorldImpl::solve(const std::vector<int>& awake) {
   // Soft contacts are solved colour by colour in lanes (contact_lanes.h); rigid contacts (the
   // classic settings, with the block solver and split impulses) one by one in id order.
   const bool coloured = !rule.rigid;
-  const LaneRule lane_solve{1.0 / h, set.max_correction_speed, true};
-  const LaneRule lane_relax{1.0 / h, set.max_correction_speed, false};
+  LaneRule lane_solve;
+  lane_solve.inv_h = 1.0 / h;
+  lane_solve.max_speed = set.max_correction_speed;
+  lane_solve.track_max = !s.restitution_rows.empty();
+  lane_solve.soft = make_softness(set.contact_hertz, set.contact_damping_ratio, h);
+  lane_solve.static_soft = make_softness(2.0 * set.contact_hertz, set.contact_damping_ratio, h);
+  LaneRule lane_relax = lane_solve;
+  lane_relax.use_bias = false;
   if (coloured) {
     colour_contacts(s, &coloured_contacts);
     update_separations(coloured_contacts, s.bodies.data());

@@ -366,6 +366,10 @@ Status World::restore(const WorldSnapshot& s) {
   w.free_shapes = s.free_shapes;
   w.contacts = s.contacts;
   w.free_contacts = s.free_contacts;
+  for (size_t ci = 0; ci < w.contacts.size(); ++ci) {
+    const Contact& c = w.contacts[ci];
+    if (c.alive) w.contact_pairs.emplace(pair_key(c.shape_a, c.shape_b), static_cast<int>(ci));
+  }
   w.joints = s.joints;
   w.free_joints = s.free_joints;
   w.pending_joint_events = s.pending_joint_events;

@@ -3,8 +3,10 @@
 // loops read little memory.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <limits>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -35,6 +37,10 @@ class WorldImpl {
   std::vector<Joint> joints;
   std::vector<int> free_joints;
   std::vector<JointId> pending_joint_events;  // destroyed with a body, reported next step
+  // Every live contact by its pair of shapes (pair_key): the broad phase asks for each
+  // candidate pair whether it already has one. Only looked up, never iterated, so its order
+  // never reaches the results.
+  std::unordered_map<uint64_t, int> contact_pairs;
   std::vector<int> awake_bodies;  // unordered set (swap-remove); sorted when a step uses it
   int body_count = 0;
 
@@ -112,6 +118,13 @@ class WorldImpl {
   std::vector<int> scratch_parent;                 // islands
   std::vector<double> scratch_rest, scratch_root_rest;
 };
+
+// The key of an unordered pair of shape indices.
+inline uint64_t pair_key(int shape_a, int shape_b) {
+  uint32_t lo = static_cast<uint32_t>(std::min(shape_a, shape_b));
+  uint32_t hi = static_cast<uint32_t>(std::max(shape_a, shape_b));
+  return (static_cast<uint64_t>(lo) << 32) | hi;
+}
 
 inline int edge_contact(int edge_key) {
   return edge_key >> 1;
