@@ -64,15 +64,17 @@ for scene in "${SCENES[@]}"; do
 done
 
 # The golden scenarios: every line (name ticks final_hash combined_hash) must match, for every
-# build and every instruction path of the contact solver this CPU runs (scalar, 2 lanes, and
-# 4 lanes where the CPU has AVX2): the paths must give the same bits as each other.
+# build, every instruction path of the contact solver this CPU runs (scalar, 2 lanes, and 4
+# lanes where the CPU has AVX2) and 1 to 4 threads: all must give the same bits.
 golden_reference=$("$FULCRUM_BUILD/bin/fulcrum_golden")
 for variant in main gcc-O0 clang-O2; do
   golden_bin="$FULCRUM_ROOT/build-det-$variant/bin/fulcrum_golden"
   [ "$variant" = main ] && golden_bin="$FULCRUM_BUILD/bin/fulcrum_golden"
-  for simd in scalar lanes2 lanes4; do
+  for run in scalar:1 lanes2:1 lanes4:1 auto:2 auto:3 lanes2:4; do
+    simd=${run%:*}
+    threads=${run#*:}
     status=0
-    got=$("$golden_bin" --simd "$simd" 2>&1) || status=$?
+    got=$("$golden_bin" --simd "$simd" --threads "$threads" 2>&1) || status=$?
     if [ "$status" -eq 2 ] && [ "$simd" = lanes4 ]; then
       echo "determinism: $variant: this CPU has no AVX2, the 4-lane path is not compared"
       continue
@@ -85,10 +87,11 @@ for variant in main gcc-O0 clang-O2; do
         continue
       fi
       failed=$((failed + 1))
-      echo "determinism: $variant ($simd) differs on golden scenario '$name':" \
+      echo "determinism: $variant ($simd, $threads threads) differs on golden scenario '$name':" \
         "got '${line:-no line}', gcc -O2 gives '$name $ticks $final $combined'"
       first=$(diff <("$FULCRUM_BUILD/bin/fulcrum_golden" --per-tick "$name") \
-        <("$golden_bin" --simd "$simd" --per-tick "$name") | grep -m1 '^<' || true)
+        <("$golden_bin" --simd "$simd" --threads "$threads" --per-tick "$name") |
+        grep -m1 '^<' || true)
       [ -z "$first" ] || echo "determinism:   first differing tick: $(cut -d' ' -f3 <<< "$first") of $ticks"
     done <<< "$golden_reference"
   done

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "worker_pool.h"
 #include "world_impl.h"
 
 namespace fulcrum {
@@ -149,15 +150,18 @@ void WorldImpl::collide_round(size_t first, size_t end) {
     std::sort(list.begin(), list.end());
   }
 
+  // New manifolds first: each depends only on its own contact, its shapes and its bodies,
+  // none of which the rest of this function changes for another contact, so they may be
+  // computed in any order, on several threads, in chunks fixed by the list.
   const double speculative = settings.speculative_distance;
-  for (int ci : list) {
-    Contact& c = contacts[ci];
+  std::vector<uint8_t>& overlap = scratch_overlap;
+  overlap.assign(list.size(), 0);
+  auto refresh = [&](size_t k) {
+    Contact& c = contacts[list[k]];
     const Shape& sa = shapes[c.shape_a];
     const Shape& sb = shapes[c.shape_b];
-    if (!tree.fat_aabb(sa.proxy).overlaps(tree.fat_aabb(sb.proxy))) {
-      destroy_contact(ci, true);
-      continue;
-    }
+    if (!tree.fat_aabb(sa.proxy).overlaps(tree.fat_aabb(sb.proxy))) return;
+    overlap[k] = 1;
     const Body& ba = bodies[c.body_a];
     const Body& bb = bodies[c.body_b];
     Manifold old = c.manifold;
@@ -165,7 +169,6 @@ void WorldImpl::collide_round(size_t first, size_t end) {
     // a fast body's contact before it arrives (speculative contact).
     double reach = speculative + settings.dt * length(bb.v - ba.v);
     c.manifold = fulcrum::collide(sa.geometry, ba.xf, sb.geometry, bb.xf, c.sensor ? 0.0 : reach);
-
     // Warm starting: a point that keeps its feature id keeps its accumulated impulses.
     for (int i = 0; i < c.manifold.count; ++i) {
       ManifoldPoint& p = c.manifold.points[i];
@@ -178,7 +181,31 @@ void WorldImpl::collide_round(size_t first, size_t end) {
         }
       }
     }
+  };
+  constexpr size_t kContactsPerChunk = 64;
+  const int chunks = static_cast<int>((list.size() + kContactsPerChunk - 1) / kContactsPerChunk);
+  auto chunk = [&](int i) {
+    const size_t lo = static_cast<size_t>(i) * kContactsPerChunk;
+    const size_t hi = std::min(lo + kContactsPerChunk, list.size());
+    for (size_t k = lo; k < hi; ++k) refresh(k);
+  };
+  if (pool != nullptr && chunks >= 4) {
+    pool->begin_busy();
+    pool->run(chunks, chunk);
+    pool->end_busy();
+  } else {
+    for (int i = 0; i < chunks; ++i) chunk(i);
+  }
 
+  // Then, in id order: boxes that parted destroy their contact; touches wake and report.
+  for (size_t k = 0; k < list.size(); ++k) {
+    const int ci = list[k];
+    if (!overlap[k]) {
+      destroy_contact(ci, true);
+      continue;
+    }
+    Contact& c = contacts[ci];
+    const Shape& sa = shapes[c.shape_a];
     bool was_touching = c.touching;
     c.touching = c.sensor ? overlapping(c.manifold) : c.manifold.count > 0;
     // An awake body touching a sleeping one wakes it (and what rests on it).

@@ -5,6 +5,7 @@
 #include <mutex>
 
 #include "contact_kernel.h"
+#include "worker_pool.h"
 
 namespace fulcrum {
 
@@ -244,13 +245,34 @@ PathFns path_fns() {
 
 }  // namespace
 
-double solve_coloured(ColouredContacts& cc, SolverBody* bodies, const LaneRule& rule) {
+namespace {
+
+int chunk_count(int first, int end) {
+  return (end - first + kBlocksPerChunk - 1) / kBlocksPerChunk;
+}
+
+}  // namespace
+
+double solve_coloured(ColouredContacts& cc, SolverBody* bodies, const LaneRule& rule,
+                      WorkerPool* pool) {
   const PathFns fns = path_fns();
   ContactBlock* blocks = cc.blocks.data();
   double largest = 0.0;
   for (int c = 0; c < cc.colours; ++c) {
-    largest = lane_max(largest,
-                       fns.solve(blocks, cc.colour_start[c], cc.colour_start[c + 1], bodies, rule));
+    const int first = cc.colour_start[c], end = cc.colour_start[c + 1];
+    const int chunks = chunk_count(first, end);
+    if (pool == nullptr || chunks < 2) {
+      largest = lane_max(largest, fns.solve(blocks, first, end, bodies, rule));
+      continue;
+    }
+    // Each chunk's largest impulse into its own slot, reduced in chunk order.
+    cc.chunk_largest.assign(chunks, 0.0);
+    auto chunk = [&](int i) {
+      const int b = first + i * kBlocksPerChunk;
+      cc.chunk_largest[i] = fns.solve(blocks, b, std::min(b + kBlocksPerChunk, end), bodies, rule);
+    };
+    pool->run(chunks, chunk);
+    for (double x : cc.chunk_largest) largest = lane_max(largest, x);
   }
   const int end = static_cast<int>(cc.blocks.size());
   if (cc.colour_start[cc.colours] < end) {
@@ -260,15 +282,37 @@ double solve_coloured(ColouredContacts& cc, SolverBody* bodies, const LaneRule& 
   return largest;
 }
 
-void update_separations(ColouredContacts& cc, const SolverBody* bodies) {
-  path_fns().separation(cc.blocks.data(), 0, static_cast<int>(cc.blocks.size()), bodies);
+void update_separations(ColouredContacts& cc, const SolverBody* bodies, WorkerPool* pool) {
+  const PathFns fns = path_fns();
+  ContactBlock* blocks = cc.blocks.data();
+  const int end = static_cast<int>(cc.blocks.size());
+  const int chunks = chunk_count(0, end);
+  if (pool == nullptr || chunks < 2) {
+    fns.separation(blocks, 0, end, bodies);
+    return;
+  }
+  auto chunk = [&](int i) {
+    const int b = i * kBlocksPerChunk;
+    fns.separation(blocks, b, std::min(b + kBlocksPerChunk, end), bodies);
+  };
+  pool->run(chunks, chunk);
 }
 
-void warm_start_coloured(ColouredContacts& cc, SolverBody* bodies) {
+void warm_start_coloured(ColouredContacts& cc, SolverBody* bodies, WorkerPool* pool) {
   const PathFns fns = path_fns();
   ContactBlock* blocks = cc.blocks.data();
   for (int c = 0; c < cc.colours; ++c) {
-    fns.warm(blocks, cc.colour_start[c], cc.colour_start[c + 1], bodies);
+    const int first = cc.colour_start[c], end = cc.colour_start[c + 1];
+    const int chunks = chunk_count(first, end);
+    if (pool == nullptr || chunks < 2) {
+      fns.warm(blocks, first, end, bodies);
+      continue;
+    }
+    auto chunk = [&](int i) {
+      const int b = first + i * kBlocksPerChunk;
+      fns.warm(blocks, b, std::min(b + kBlocksPerChunk, end), bodies);
+    };
+    pool->run(chunks, chunk);
   }
   const int end = static_cast<int>(cc.blocks.size());
   if (cc.colour_start[cc.colours] < end) {

@@ -68,8 +68,9 @@ struct ColouredContacts {
   std::vector<int> colour_start;
   int colours = 0;
   int overflow = 0;
-  std::vector<int> lane_of_row;    // row -> block * kBlockLanes + lane
-  std::vector<uint32_t> body_use;  // scratch: colours used per solver body
+  std::vector<int> lane_of_row;       // row -> block * kBlockLanes + lane
+  std::vector<uint32_t> body_use;     // scratch: colours used per solver body
+  std::vector<double> chunk_largest;  // scratch: each chunk's largest impulse
 };
 
 // Colours rows[0, n) of `s` (prepared, in id order) and packs them into blocks.
@@ -96,12 +97,20 @@ void warm_x4(ContactBlock*, int, int, SolverBody*);
 void separation_x4(ContactBlock*, int, int, const SolverBody*);
 }  // namespace lanes
 
+class WorkerPool;
+
+// Blocks per chunk when a colour is shared out among threads: a constant, so that which
+// blocks form a chunk never depends on the thread count.
+inline constexpr int kBlocksPerChunk = 4;
+
 // The current separation of every lane's points, from the bodies' motion since the tick began;
 // called once the blocks are packed and after every position update.
-void update_separations(ColouredContacts& cc, const SolverBody* bodies);
+void update_separations(ColouredContacts& cc, const SolverBody* bodies, WorkerPool* pool);
 
 // One pass (solve or warm start) over every colour, then the overflow one lane at a time.
-double solve_coloured(ColouredContacts& cc, SolverBody* bodies, const LaneRule& rule);
-void warm_start_coloured(ColouredContacts& cc, SolverBody* bodies);
+// With a pool, each colour's chunks are shared among its threads.
+double solve_coloured(ColouredContacts& cc, SolverBody* bodies, const LaneRule& rule,
+                      WorkerPool* pool);
+void warm_start_coloured(ColouredContacts& cc, SolverBody* bodies, WorkerPool* pool);
 
 }  // namespace fulcrum

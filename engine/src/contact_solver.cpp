@@ -26,6 +26,7 @@
 #include <cmath>
 
 #include "fulcrum/trig.h"
+#include "worker_pool.h"
 #include "world_impl.h"
 
 namespace fulcrum {
@@ -126,10 +127,11 @@ void load_bodies(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s) 
 
 // Step 1: applied forces into velocities, v2 = v1 + h M^-1 F, then damping as the decay
 // factor 1 / (1 + h c), which stays stable for any damping. Speeds are clamped.
-void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s, double h) {
+void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s, double h,
+                          size_t first, size_t end) {
   const double gx = w.settings.gravity.x(), gy = w.settings.gravity.y();
   const double max_speed = w.settings.max_linear_speed;
-  for (size_t k = 0; k < awake.size(); ++k) {
+  for (size_t k = first; k < end; ++k) {
     const Body& b = w.bodies[awake[k]];
     if (!b.is_dynamic()) continue;
     SolverBody& sb = s.bodies[k + 1];
@@ -479,9 +481,8 @@ void solve_pseudo(SolverScratch& s, const BiasRule& rule) {
 }
 
 // Symplectic Euler for one substep: x += h (v + v_pseudo); rotation by the exact angle.
-void integrate_positions(SolverScratch& s, double h) {
-  const size_t n = s.bodies.size();
-  for (size_t k = 1; k < n; ++k) {
+void integrate_positions(SolverScratch& s, double h, size_t first, size_t end) {
+  for (size_t k = first; k < end; ++k) {
     SolverBody& sb = s.bodies[k];
     sb.dpx += h * (sb.vx + sb.pvx);
     sb.dpy += h * (sb.vy + sb.pvy);
@@ -494,6 +495,22 @@ void integrate_positions(SolverScratch& s, double h) {
       sb.qs = q.s;
     }
     sb.pvx = sb.pvy = sb.pw = 0.0;
+  }
+}
+
+// Runs fn(first, end) over [0, n) in runs of kBodiesPerChunk, on the pool's threads if any.
+constexpr size_t kBodiesPerChunk = 256;
+template <class F>
+void for_body_chunks(WorkerPool* pool, size_t n, F fn) {
+  const int chunks = static_cast<int>((n + kBodiesPerChunk - 1) / kBodiesPerChunk);
+  auto chunk = [&](int i) {
+    const size_t lo = static_cast<size_t>(i) * kBodiesPerChunk;
+    fn(lo, std::min(lo + kBodiesPerChunk, n));
+  };
+  if (pool != nullptr) {
+    pool->run(chunks, chunk);
+  } else {
+    for (int i = 0; i < chunks; ++i) chunk(i);
   }
 }
 
@@ -574,24 +591,30 @@ void WorldImpl::solve(const std::vector<int>& awake) {
   lane_solve.static_soft = make_softness(2.0 * set.contact_hertz, set.contact_damping_ratio, h);
   LaneRule lane_relax = lane_solve;
   lane_relax.use_bias = false;
+  // Threads only where a colour has chunks enough to share (see kBlocksPerChunk).
+  WorkerPool* workers = pool != nullptr && coloured && s.rows.size() >= 256 ? pool : nullptr;
+  if (workers != nullptr) workers->begin_busy();
   if (coloured) {
     colour_contacts(s, &coloured_contacts);
-    update_separations(coloured_contacts, s.bodies.data());
+    update_separations(coloured_contacts, s.bodies.data(), workers);
   }
   auto contact_pass = [&](const BiasRule& r, const LaneRule& lr) {
-    return coloured ? solve_coloured(coloured_contacts, s.bodies.data(), lr) : solve_contacts(s, r);
+    return coloured ? solve_coloured(coloured_contacts, s.bodies.data(), lr, workers)
+                    : solve_contacts(s, r);
   };
   for (int sub = 0; sub < set.substeps; ++sub) {
     record_speed_before(s);
     // Applied forces, all from the state at the substep's start (explicit), then constraints.
     apply_spring_forces(h);
-    integrate_velocities(*this, awake, s, h);
+    for_body_chunks(workers, awake.size(), [&](size_t lo, size_t hi) {
+      integrate_velocities(*this, awake, s, h, lo, hi);
+    });
     track_approach(s, 1.0 / h);
     // Later substeps always start from the impulses of the one before.
     if (set.warm_starting || sub > 0) {
       warm_start_joints();
       if (coloured) {
-        warm_start_coloured(coloured_contacts, s.bodies.data());
+        warm_start_coloured(coloured_contacts, s.bodies.data(), workers);
       } else {
         warm_start(s);
       }
@@ -603,13 +626,16 @@ void WorldImpl::solve(const std::vector<int>& awake) {
     if (rule.rigid && rule.split) {
       for (int it = 0; it < set.position_iterations; ++it) solve_pseudo(s, rule);
     }
-    integrate_positions(s, h);
-    if (coloured) update_separations(coloured_contacts, s.bodies.data());
+    // Solver slots 1..n hold the awake bodies (0 is the shared static body).
+    for_body_chunks(workers, awake.size(),
+                    [&](size_t lo, size_t hi) { integrate_positions(s, h, lo + 1, hi + 1); });
+    if (coloured) update_separations(coloured_contacts, s.bodies.data(), workers);
     for (int it = 0; it < set.relax_iterations; ++it) {
       solve_joints(false);
       if (contact_pass(relax, lane_relax) < set.early_exit_tolerance) break;
     }
   }
+  if (workers != nullptr) workers->end_busy();
   if (coloured) unpack_impulses(coloured_contacts, &s);
   apply_restitution(s, set.restitution_threshold);
   store_impulses(*this, s);
@@ -632,7 +658,7 @@ void WorldImpl::prepare_reference_tick() {
   prepare(*this, s, h);
   prepare_joints(awake, h);
   apply_spring_forces(h);
-  integrate_velocities(*this, awake, s, h);
+  integrate_velocities(*this, awake, s, h, 0, awake.size());
 }
 
 }  // namespace fulcrum

@@ -6,6 +6,7 @@
 
 #include "fulcrum/trig.h"
 #include "validation.h"
+#include "worker_pool.h"
 #include "world_impl.h"
 
 namespace fulcrum {
@@ -148,6 +149,20 @@ void WorldImpl::wake_in_box(const AABB& box) {
 
 World::World(const WorldSettings& settings) : impl_(std::make_unique<WorldImpl>(settings)) {}
 World::~World() = default;
+
+Status World::set_threads(int threads) {
+  if (threads < 1 || threads > kMaxThreads) {
+    return invalid_argument("threads: " + std::to_string(threads) + " is outside [1, " +
+                            std::to_string(kMaxThreads) + "]");
+  }
+  if (threads == this->threads()) return {};
+  pool_ = threads > 1 ? std::make_unique<WorkerPool>(threads) : nullptr;
+  return {};
+}
+
+int World::threads() const {
+  return pool_ != nullptr ? pool_->threads() : 1;
+}
 World::World(World&&) noexcept = default;
 World& World::operator=(World&&) noexcept = default;
 
@@ -583,6 +598,7 @@ Status World::set_awake(BodyId id, bool awake) {
 // Edits arrive between ticks through the API above, so every edit applies at a tick boundary.
 void World::step() {
   WorldImpl& w = *impl_;
+  w.pool = pool_.get();
   w.events = StepEvents{};
   w.events.joints_destroyed.swap(w.pending_joint_events);
   ++w.step_stamp;

@@ -111,9 +111,13 @@ class WorldImpl {
 
   // Scratch reused every step (never part of the state).
   std::vector<int> scratch_contacts;
+  std::vector<uint8_t> scratch_overlap;  // collide: whether each contact's boxes still overlap
   std::vector<int> scratch_awake;
   SolverScratch solver_scratch;
   ColouredContacts coloured_contacts;
+  // The threads the step may use (World::set_threads); null: the caller's thread alone. Owned
+  // by the World, so that restoring a snapshot keeps it.
+  WorkerPool* pool = nullptr;
   std::vector<std::pair<int, int>> scratch_pairs;  // broad phase
   std::vector<int> scratch_parent;                 // islands
   std::vector<double> scratch_rest, scratch_root_rest;

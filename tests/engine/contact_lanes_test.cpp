@@ -9,6 +9,7 @@
 
 #include "contact_lanes.h"
 #include "fulcrum/simd.h"
+#include "fulcrum/state.h"
 #include "scene_fixture.h"
 #include "world_impl.h"
 
@@ -133,6 +134,58 @@ void expect_paths_agree(const SceneDef& scene, int ticks) {
 TEST(ContactLanes, EveryPathGivesTheScalarBits) {
   expect_paths_agree(pyramid(12), 120);
   expect_paths_agree(loaded_plank(40), 60);
+}
+
+// Any thread count gives one thread's state hash at every tick, on scenes large enough that
+// the step shares out its colours, narrow phase and integration.
+void expect_threads_agree(const SceneDef& scene, int ticks) {
+  std::vector<uint64_t> reference;
+  for (int threads = 1; threads <= 4; ++threads) {
+    World w = build(scene);
+    ASSERT_TRUE(w.set_threads(threads).ok());
+    EXPECT_EQ(w.threads(), threads);
+    for (int i = 0; i < ticks; ++i) {
+      w.step();
+      if (threads == 1) {
+        reference.push_back(w.state_hash());
+      } else {
+        ASSERT_EQ(w.state_hash(), reference[i]) << threads << " threads, tick " << i + 1;
+      }
+      if (threads == 1 && i == 10) {
+        // The scene really is shared out (before it falls asleep): colours of several chunks.
+        const ColouredContacts& cc = w.impl().coloured_contacts;
+        EXPECT_GE(w.impl().solver_scratch.rows.size(), 256u);
+        EXPECT_GE(cc.colour_start[1] - cc.colour_start[0], 2 * kBlocksPerChunk);
+      }
+    }
+  }
+}
+
+TEST(ContactLanes, EveryThreadCountGivesOneThreadsBits) {
+  expect_threads_agree(pyramid(24), 90);
+  SceneDef plank = loaded_plank(40);
+  scenes::PyramidOptions p;
+  p.base = 24;
+  p.origin = Vec2(60.0, 0.0);
+  scenes::add_ground(&plank, 100.0);
+  scenes::add_pyramid(&plank, p);
+  expect_threads_agree(plank, 60);
+}
+
+TEST(ContactLanes, ThreadsAreCheckedAndSurviveARestore) {
+  World w = build(pyramid(4));
+  EXPECT_FALSE(w.set_threads(0).ok());
+  Status too_many = w.set_threads(World::kMaxThreads + 1);
+  ASSERT_FALSE(too_many.ok());
+  EXPECT_NE(too_many.message().find("threads"), std::string::npos);
+  EXPECT_EQ(w.threads(), 1);
+  ASSERT_TRUE(w.set_threads(3).ok());
+  for (int i = 0; i < 5; ++i) w.step();
+  WorldSnapshot snap = w.snapshot();
+  ASSERT_TRUE(w.restore(snap).ok());
+  EXPECT_EQ(w.threads(), 3);  // an execution setting, not state
+  ASSERT_TRUE(w.set_threads(1).ok());
+  EXPECT_EQ(w.threads(), 1);
 }
 
 TEST(ContactLanes, PathNamesParseAndUnsupportedPathsAreRefused) {

@@ -575,7 +575,9 @@ void edit_joints(World& world, int64_t tick) {
 // A plank carrying 40 balls touches more bodies than there are colours, so some of its
 // contacts overflow and are solved one by one; a kinematic paddle sweeps through a pile of
 // boxes (contacts of one colour may share it: the solver never writes it); bouncy balls give
-// one-point manifolds with restitution. Its hash is compared across the instruction paths.
+// one-point manifolds with restitution; a base-20 pyramid gives colours of several chunks, so
+// that the contact solver shares them out when the world has threads. Its hash is compared
+// across the instruction paths and thread counts.
 
 World build_lanes() {
   SceneDef s;
@@ -602,6 +604,10 @@ World build_lanes() {
     ball.shapes[0].restitution = 0.6;
     push(&s, std::move(ball));
   }
+  scenes::PyramidOptions p;
+  p.base = 20;
+  p.origin = Vec2(-40.0, 0.0);
+  scenes::add_pyramid(&s, p);
   return require(build_world(s), "lanes", "build_world");
 }
 
@@ -620,8 +626,9 @@ const std::vector<GoldenScenario>& golden_scenarios() {
   return scenarios;
 }
 
-std::vector<uint64_t> run_golden(const GoldenScenario& scenario) {
+std::vector<uint64_t> run_golden(const GoldenScenario& scenario, int threads) {
   World world = scenario.build();
+  require(world.set_threads(threads), scenario.name, "set_threads");
   std::vector<uint64_t> hashes;
   hashes.reserve(static_cast<size_t>(scenario.ticks));
   for (int i = 0; i < scenario.ticks; ++i) {

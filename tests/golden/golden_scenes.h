@@ -44,8 +44,9 @@ inline constexpr uint64_t kTagDroppedBall = 300;
 const std::vector<GoldenScenario>& golden_scenarios();
 
 // build(), then `ticks` times: edits(world, world.tick()); world.step(); record
-// world.state_hash(). Returns one hash per tick (the last is the final state's).
-std::vector<uint64_t> run_golden(const GoldenScenario& scenario);
+// world.state_hash(). Returns one hash per tick (the last is the final state's). `threads`:
+// World::set_threads for the run (any count must give the same hashes).
+std::vector<uint64_t> run_golden(const GoldenScenario& scenario, int threads = 1);
 
 // One 64-bit hash over a sequence of tick hashes, order-sensitive: a difference at any tick
 // changes it.

@@ -35,7 +35,7 @@ constexpr Pinned kPinned[] = {
     {"sleep_wake", 480, 0x14bdaad56224257bull, 0xea154c3e140fe5b8ull},
     {"edits",      480, 0x27b2d7224d95e693ull, 0x41585b7e9bf44569ull},
     {"joints",     360, 0xd5e71f01a0f04596ull, 0x1181ba2fdf4e9bd8ull},
-    {"lanes",      240, 0xa44f0a2904236659ull, 0x92e1575548aa20b2ull},
+    {"lanes",      240, 0xe601e1ae6c51701cull, 0x4314bbd9a6accf2full},
 };
 // clang-format on
 

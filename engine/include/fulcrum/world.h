@@ -88,6 +88,7 @@ struct RayHit {
 };
 
 class WorldImpl;
+class WorkerPool;
 struct WorldSnapshot;  // fulcrum/state.h
 
 class World {
@@ -159,6 +160,13 @@ class World {
   // --- Simulation ----------------------------------------------------------------------------
   // Advances exactly one tick of settings().dt.
   void step();
+  // Threads the step may use, the caller's included: 1 (the default) to kMaxThreads. Any
+  // count gives the same bits, so this is not part of the world's state: snapshots do not
+  // carry it and restoring one keeps it. The step shares out the contact solver's colours when
+  // a tick has at least 256 touching contacts.
+  static constexpr int kMaxThreads = 64;
+  Status set_threads(int threads);
+  int threads() const;
   int64_t tick() const;
   // Events produced by the last step.
   const StepEvents& events() const;
@@ -193,6 +201,7 @@ class World {
 
  private:
   std::unique_ptr<WorldImpl> impl_;
+  std::unique_ptr<WorkerPool> pool_;  // null with one thread
 };
 
 }  // namespace fulcrum

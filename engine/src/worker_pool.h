@@ -1,0 +1,56 @@
+// The threads one world's step may use. A stage is a count of chunks, each a pure function of
+// its index; thread t of T (the caller is thread 0) runs the t-th of T equal runs of chunks,
+// and run() returns when every thread has checked in. What a chunk computes never depends on
+// the thread that runs it (chunk boundaries come from the data, never from the thread count),
+// and chunks of one stage write disjoint memory, so any number of threads gives the same bits
+// as one.
+//
+// Workers spin between the stages of a step (a step has a few hundred) and sleep between
+// steps: begin_busy() / end_busy() bracket a step.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <thread>
+#include <vector>
+
+namespace fulcrum {
+
+class WorkerPool {
+ public:
+  // `threads` >= 1 counts the caller: threads - 1 workers are started.
+  explicit WorkerPool(int threads);
+  ~WorkerPool();
+  WorkerPool(const WorkerPool&) = delete;
+  WorkerPool& operator=(const WorkerPool&) = delete;
+
+  int threads() const { return static_cast<int>(workers_.size()) + 1; }
+
+  void begin_busy();
+  void end_busy();
+
+  // Runs fn(ctx, i) for every i in [0, chunks) and returns when all are done.
+  using ChunkFn = void (*)(void* ctx, int chunk);
+  void run(int chunks, ChunkFn fn, void* ctx);
+
+  template <class F>
+  void run(int chunks, F& f) {
+    run(
+        chunks, [](void* c, int i) { (*static_cast<F*>(c))(i); }, &f);
+  }
+
+ private:
+  void worker_loop(int index);
+  void work_on(int thread);
+
+  std::vector<std::thread> workers_;
+  std::atomic<uint32_t> stage_{0};  // bumped to start a stage; workers wait on it
+  std::atomic<int> done_{0};        // workers finished with the current stage
+  std::atomic<int> chunks_{0};
+  std::atomic<ChunkFn> fn_{nullptr};
+  std::atomic<void*> ctx_{nullptr};
+  std::atomic<bool> busy_{false};
+  std::atomic<bool> stop_{false};
+};
+
+}  // namespace fulcrum
