@@ -6,6 +6,7 @@
 //   build/bin/fulcrum_bench                       # the default table
 //   build/bin/fulcrum_bench --scene large_pyramid --steps 500 --repeats 5
 //   build/bin/fulcrum_bench --iterations 4 --csv  # CSV instead of Markdown
+//   build/bin/fulcrum_bench --threads 2 --simd scalar  # World::set_threads, the solver's path
 #include <algorithm>
 #include <chrono>
 #include <cinttypes>
@@ -17,6 +18,7 @@
 
 #include "fulcrum/scene.h"
 #include "fulcrum/scenes.h"
+#include "fulcrum/simd.h"
 #include "fulcrum/world.h"
 
 namespace {
@@ -37,7 +39,7 @@ struct Row {
   uint64_t hash = 0;
 };
 
-Row run(const Entry& e, int repeats, int iterations) {
+Row run(const Entry& e, int repeats, int iterations, int threads) {
   Row row;
   row.scene = e.scene;
   row.steps = e.steps;
@@ -46,6 +48,7 @@ Row run(const Entry& e, int repeats, int iterations) {
     fulcrum::SceneDef scene = fulcrum::scenes::builtin(e.scene).value();
     if (iterations > 0) scene.settings.velocity_iterations = iterations;
     fulcrum::World world = std::move(fulcrum::build_world(scene).value());
+    if (!world.set_threads(threads).ok()) std::exit(2);
     std::vector<fulcrum::Vec2> start;
     for (fulcrum::BodyId id : world.bodies()) start.push_back(world.body_state(id)->center);
     world.step();
@@ -84,7 +87,7 @@ int main(int argc, char** argv) {
       {"particle_pile", 300}, {"circle_pile", 300},   {"joint_grid", 500},         {"cloth", 600},
       {"ragdolls", 600},      {"ragdoll_rain", 300}};
   std::vector<Entry> chosen;
-  int repeats = 3, steps = 0, iterations = 0;
+  int repeats = 3, steps = 0, iterations = 0, threads = 1;
   bool csv = false;
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
@@ -105,10 +108,24 @@ int main(int argc, char** argv) {
       iterations = std::atoi(value());
     } else if (a == "--csv") {
       csv = true;
+    } else if (a == "--threads") {
+      threads = std::atoi(value());
+      if (threads < 1 || threads > fulcrum::World::kMaxThreads) {
+        std::fprintf(stderr, "fulcrum_bench: --threads: expected 1 to %d\n",
+                     fulcrum::World::kMaxThreads);
+        return 2;
+      }
+    } else if (a == "--simd") {
+      auto path = fulcrum::parse_simd_path(value());
+      fulcrum::Status set = path.ok() ? fulcrum::set_simd_path(*path) : path.status();
+      if (!set.ok()) {
+        std::fprintf(stderr, "fulcrum_bench: --simd: %s\n", set.message().c_str());
+        return 2;
+      }
     } else {
       std::fprintf(stderr,
                    "usage: fulcrum_bench [--scene NAME]... [--steps N] [--repeats R] "
-                   "[--iterations K] [--csv]\n");
+                   "[--iterations K] [--threads N] [--simd scalar|lanes2|lanes4|auto] [--csv]\n");
       return 2;
     }
   }
@@ -139,7 +156,7 @@ int main(int argc, char** argv) {
     std::printf("|---|---|---|---|---|---|---|---|\n");
   }
   for (const Entry& e : chosen) {
-    Row r = run(e, repeats, iterations);
+    Row r = run(e, repeats, iterations, threads);
     if (csv) {
       std::printf("%s,%d,%d,%.4f,%.6f,%.6f,%d,%016" PRIx64 "\n", r.scene.c_str(), r.bodies, r.steps,
                   r.ms_per_step, r.max_penetration, r.max_joint_error, r.moved, r.hash);
