@@ -125,7 +125,62 @@ SimdPath active_simd_path() {
 
 static_assert(kMaxColours <= 32, "colours are bits of a uint32_t");
 
-void colour_contacts(const SolverScratch& s, ColouredContacts* out) {
+namespace {
+
+constexpr size_t kRowsPerChunk = 256;
+
+void clear_point(LanePoint* q, int l) {
+  q->rax[l] = q->ray[l] = q->rbx[l] = q->rby[l] = 0.0;
+  q->separation[l] = q->base_separation[l] = 0.0;
+  q->normal_mass[l] = q->tangent_mass[l] = 0.0;
+  q->normal_impulse[l] = q->tangent_impulse[l] = q->max_normal_impulse[l] = 0.0;
+}
+
+void clear_lane(ContactBlock* b, int l) {
+  b->ia[l] = b->ib[l] = 0;
+  b->write_a[l] = b->write_b[l] = 0;
+  b->inv_inertia_a[l] = b->inv_inertia_b[l] = 0.0;
+  b->nx[l] = b->ny[l] = b->friction[l] = 0.0;
+  clear_point(&b->points[0], l);
+  clear_point(&b->points[1], l);
+}
+
+void write_lane(const SolverScratch& s, const ContactRow& row, ContactBlock* b, int l) {
+  const SolverBody& a = s.bodies[row.ia];
+  const SolverBody& bb = s.bodies[row.ib];
+  b->ia[l] = row.ia;
+  b->ib[l] = row.ib;
+  b->write_a[l] = a.inv_mass > 0.0;
+  b->write_b[l] = bb.inv_mass > 0.0;
+  b->inv_inertia_a[l] = a.inv_inertia;
+  b->inv_inertia_b[l] = bb.inv_inertia;
+  b->nx[l] = row.nx;
+  b->ny[l] = row.ny;
+  b->friction[l] = row.friction;
+  for (int i = 0; i < 2; ++i) {
+    LanePoint* q = &b->points[i];
+    if (i >= row.count) {
+      clear_point(q, l);  // a one-point manifold's second point changes nothing
+      continue;
+    }
+    const ContactPointRow& p = row.points[i];
+    q->rax[l] = p.rax;
+    q->ray[l] = p.ray;
+    q->rbx[l] = p.rbx;
+    q->rby[l] = p.rby;
+    q->separation[l] = 0.0;  // update_separations
+    q->base_separation[l] = p.base_separation;
+    q->normal_mass[l] = p.normal_mass;
+    q->tangent_mass[l] = p.tangent_mass;
+    q->normal_impulse[l] = p.normal_impulse;
+    q->tangent_impulse[l] = p.tangent_impulse;
+    q->max_normal_impulse[l] = p.max_normal_impulse;
+  }
+}
+
+}  // namespace
+
+void colour_contacts(const SolverScratch& s, ColouredContacts* out, WorkerPool* pool) {
   const size_t n_rows = s.rows.size();
   std::vector<uint32_t>& use = out->body_use;
   use.assign(s.bodies.size(), 0);
@@ -171,54 +226,57 @@ void colour_contacts(const SolverScratch& s, ColouredContacts* out) {
   next_lane[kMaxColours] = blocks * kBlockLanes;
   blocks += (count[kMaxColours] + kBlockLanes - 1) / kBlockLanes;
   out->overflow = count[kMaxColours];
-  // Empty lanes: the static body on both sides, zero masses, nothing written.
-  out->blocks.assign(blocks, ContactBlock{});
-  // Pass 2: fill the lanes, rows in id order within each colour.
-  for (size_t k = 0; k < n_rows; ++k) {
-    const int lane_index = next_lane[lane_of_row[k]]++;
-    lane_of_row[k] = lane_index;
-    ContactBlock& b = out->blocks[lane_index / kBlockLanes];
-    const int l = lane_index % kBlockLanes;
-    const ContactRow& row = s.rows[k];
-    const SolverBody& a = s.bodies[row.ia];
-    const SolverBody& bb = s.bodies[row.ib];
-    b.ia[l] = row.ia;
-    b.ib[l] = row.ib;
-    b.write_a[l] = a.inv_mass > 0.0;
-    b.write_b[l] = bb.inv_mass > 0.0;
-    b.inv_inertia_a[l] = a.inv_inertia;
-    b.inv_inertia_b[l] = bb.inv_inertia;
-    b.nx[l] = row.nx;
-    b.ny[l] = row.ny;
-    b.friction[l] = row.friction;
-    for (int i = 0; i < row.count; ++i) {
-      const ContactPointRow& p = row.points[i];
-      LanePoint& q = b.points[i];
-      q.rax[l] = p.rax;
-      q.ray[l] = p.ray;
-      q.rbx[l] = p.rbx;
-      q.rby[l] = p.rby;
-      q.base_separation[l] = p.base_separation;
-      q.normal_mass[l] = p.normal_mass;
-      q.tangent_mass[l] = p.tangent_mass;
-      q.normal_impulse[l] = p.normal_impulse;
-      q.tangent_impulse[l] = p.tangent_impulse;
-      q.max_normal_impulse[l] = p.max_normal_impulse;
+  // Lanes in id order within each colour; then the rows are copied in, each into its own lane
+  // (in chunks, on the pool's threads if any).
+  for (size_t k = 0; k < n_rows; ++k) lane_of_row[k] = next_lane[lane_of_row[k]]++;
+  out->blocks.resize(blocks);
+  auto fill = [&](int chunk) {
+    const size_t lo = static_cast<size_t>(chunk) * kRowsPerChunk;
+    const size_t hi = std::min(lo + kRowsPerChunk, n_rows);
+    for (size_t k = lo; k < hi; ++k) {
+      const int lane_index = lane_of_row[k];
+      write_lane(s, s.rows[k], &out->blocks[lane_index / kBlockLanes], lane_index % kBlockLanes);
     }
+  };
+  const int chunks = static_cast<int>((n_rows + kRowsPerChunk - 1) / kRowsPerChunk);
+  if (pool != nullptr) {
+    pool->run(chunks, fill);
+  } else {
+    for (int i = 0; i < chunks; ++i) fill(i);
   }
+  // Empty lanes at the end of each colour and of the overflow: the static body on both sides,
+  // zero masses, nothing written.
+  auto clear_tail = [&](int lane_end) {
+    for (int lane = lane_end; lane % kBlockLanes != 0; ++lane) {
+      clear_lane(&out->blocks[lane / kBlockLanes], lane % kBlockLanes);
+    }
+  };
+  for (int c = 0; c < colours; ++c) clear_tail(next_lane[c]);
+  clear_tail(next_lane[kMaxColours]);
 }
 
-void unpack_impulses(const ColouredContacts& cc, SolverScratch* s) {
-  for (size_t k = 0; k < s->rows.size(); ++k) {
-    const int lane_index = cc.lane_of_row[k];
-    const ContactBlock& b = cc.blocks[lane_index / kBlockLanes];
-    const int l = lane_index % kBlockLanes;
-    ContactRow& row = s->rows[k];
-    for (int i = 0; i < row.count; ++i) {
-      row.points[i].normal_impulse = b.points[i].normal_impulse[l];
-      row.points[i].tangent_impulse = b.points[i].tangent_impulse[l];
-      row.points[i].max_normal_impulse = b.points[i].max_normal_impulse[l];
+void unpack_impulses(const ColouredContacts& cc, SolverScratch* s, WorkerPool* pool) {
+  const size_t n_rows = s->rows.size();
+  auto chunk = [&](int i) {
+    const size_t lo = static_cast<size_t>(i) * kRowsPerChunk;
+    const size_t hi = std::min(lo + kRowsPerChunk, n_rows);
+    for (size_t k = lo; k < hi; ++k) {
+      const int lane_index = cc.lane_of_row[k];
+      const ContactBlock& b = cc.blocks[lane_index / kBlockLanes];
+      const int l = lane_index % kBlockLanes;
+      ContactRow& row = s->rows[k];
+      for (int p = 0; p < row.count; ++p) {
+        row.points[p].normal_impulse = b.points[p].normal_impulse[l];
+        row.points[p].tangent_impulse = b.points[p].tangent_impulse[l];
+        row.points[p].max_normal_impulse = b.points[p].max_normal_impulse[l];
+      }
     }
+  };
+  const int chunks = static_cast<int>((n_rows + kRowsPerChunk - 1) / kRowsPerChunk);
+  if (pool != nullptr) {
+    pool->run(chunks, chunk);
+  } else {
+    for (int i = 0; i < chunks; ++i) chunk(i);
   }
 }
 

@@ -266,7 +266,7 @@ FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, int l0, SolverBody* bodies,
       L::store(p.max_normal_impulse + l0, lane_max(L::load(p.max_normal_impulse + l0), acc));
     }
     v.apply(ima, iia, imb, iib, rax, ray, rbx, rby, lambda * nx, lambda * ny);
-    largest = lane_max(largest, lane_max(lambda, -lambda));
+    if (rule.want_largest) largest = lane_max(largest, lane_max(lambda, -lambda));
   }
   // Friction along t = (ny, -nx), bounded by the normal impulses just found.
   const V tx = ny, ty = -nx;
@@ -283,7 +283,7 @@ FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, int l0, SolverBody* bodies,
     lambda = acc - old;
     L::store(p.tangent_impulse + l0, acc);
     v.apply(ima, iia, imb, iib, rax, ray, rbx, rby, lambda * tx, lambda * ty);
-    largest = lane_max(largest, lane_max(lambda, -lambda));
+    if (rule.want_largest) largest = lane_max(largest, lane_max(lambda, -lambda));
   }
   v.store(k, l0, bodies);
   return largest;

@@ -54,11 +54,12 @@ struct alignas(64) ContactBlock {
 // What one pass needs besides the blocks.
 struct LaneRule {
   double inv_h = 0.0;
-  double max_speed = 0.0;  // cap on push-out speed
-  bool use_bias = true;    // position feedback in this pass
-  bool track_max = false;  // keep each point's largest normal impulse (for restitution)
-  Softness soft;           // between two dynamic bodies
-  Softness static_soft;    // with a body of infinite mass (static, kinematic)
+  double max_speed = 0.0;     // cap on push-out speed
+  bool use_bias = true;       // position feedback in this pass
+  bool track_max = false;     // keep each point's largest normal impulse (for restitution)
+  bool want_largest = false;  // return the largest corrective impulse (for early exit)
+  Softness soft;              // between two dynamic bodies
+  Softness static_soft;       // with a body of infinite mass (static, kinematic)
 };
 
 // The coloured blocks of one tick. Blocks [colour_start[c], colour_start[c + 1]) hold colour
@@ -73,13 +74,16 @@ struct ColouredContacts {
   std::vector<double> chunk_largest;  // scratch: each chunk's largest impulse
 };
 
+class WorkerPool;
+
 // Colours rows[0, n) of `s` (prepared, in id order) and packs them into blocks.
-void colour_contacts(const SolverScratch& s, ColouredContacts* out);
+void colour_contacts(const SolverScratch& s, ColouredContacts* out, WorkerPool* pool);
 // Copies the accumulated impulses back into the rows (for restitution and storage).
-void unpack_impulses(const ColouredContacts& cc, SolverScratch* s);
+void unpack_impulses(const ColouredContacts& cc, SolverScratch* s, WorkerPool* pool);
 
 // Lanes [first, first + count) of blocks, for each path. Each returns the largest corrective
-// impulse. Declared per path so that the 4-lane path can live in a file built for AVX2.
+// impulse (0 unless the rule asks for it). Declared per path so that the 4-lane path can live in a
+// file built for AVX2.
 namespace lanes {
 using SolveFn = double (*)(ContactBlock* blocks, int first_block, int end_block, SolverBody* bodies,
                            const LaneRule& rule);
@@ -96,8 +100,6 @@ double solve_x4(ContactBlock*, int, int, SolverBody*, const LaneRule&);
 void warm_x4(ContactBlock*, int, int, SolverBody*);
 void separation_x4(ContactBlock*, int, int, const SolverBody*);
 }  // namespace lanes
-
-class WorkerPool;
 
 // Blocks per chunk when a colour is shared out among threads: a constant, so that which
 // blocks form a chunk never depends on the thread count.

@@ -163,17 +163,14 @@ void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScr
   }
 }
 
-void prepare(WorldImpl& w, SolverScratch& s, double h) {
+// Rows [first, end): each depends only on its own contact and bodies.
+void prepare_rows(WorldImpl& w, SolverScratch& s, double h, size_t first, size_t end) {
   const WorldSettings& set = w.settings;
   const Softness soft = make_softness(set.contact_hertz, set.contact_damping_ratio, h);
   // Contacts against immovable bodies take the push-out alone: twice as stiff.
   const Softness static_soft = make_softness(2.0 * set.contact_hertz, set.contact_damping_ratio, h);
   const bool rigid = set.contact_hertz == 0.0;
-  const size_t n_rows = s.contacts.size();
-  s.rows.resize(n_rows);
-  s.extras.resize(n_rows);
-  s.restitution_rows.clear();
-  for (size_t k = 0; k < n_rows; ++k) {
+  for (size_t k = first; k < end; ++k) {
     const Contact& c = w.contacts[s.contacts[k]];
     const Body& body_a = w.bodies[c.body_a];
     const Body& body_b = w.bodies[c.body_b];
@@ -181,7 +178,6 @@ void prepare(WorldImpl& w, SolverScratch& s, double h) {
     ContactRowExtra& extra = s.extras[k];
     extra.contact = s.contacts[k];
     extra.restitution = c.restitution;
-    if (c.restitution != 0.0) s.restitution_rows.push_back(static_cast<int>(k));
     row.ia = body_a.awake ? s.body_slot[c.body_a] : 0;
     row.ib = body_b.awake ? s.body_slot[c.body_b] : 0;
     row.nx = c.manifold.normal.x();
@@ -237,6 +233,32 @@ void prepare(WorldImpl& w, SolverScratch& s, double h) {
         extra.i22 = k11 * inv_det;
       }
     }
+  }
+}
+
+// Runs fn(first, end) over [0, n) in runs of `per_chunk`, on the pool's threads if any.
+template <class F>
+void for_chunks(WorkerPool* pool, size_t n, size_t per_chunk, F fn) {
+  const int chunks = static_cast<int>((n + per_chunk - 1) / per_chunk);
+  auto chunk = [&](int i) {
+    const size_t lo = static_cast<size_t>(i) * per_chunk;
+    fn(lo, std::min(lo + per_chunk, n));
+  };
+  if (pool != nullptr) {
+    pool->run(chunks, chunk);
+  } else {
+    for (int i = 0; i < chunks; ++i) chunk(i);
+  }
+}
+
+void prepare(WorldImpl& w, SolverScratch& s, double h, WorkerPool* pool) {
+  const size_t n_rows = s.contacts.size();
+  s.rows.resize(n_rows);
+  s.extras.resize(n_rows);
+  for_chunks(pool, n_rows, 256, [&](size_t lo, size_t hi) { prepare_rows(w, s, h, lo, hi); });
+  s.restitution_rows.clear();
+  for (size_t k = 0; k < n_rows; ++k) {
+    if (s.extras[k].restitution != 0.0) s.restitution_rows.push_back(static_cast<int>(k));
   }
 }
 
@@ -498,22 +520,6 @@ void integrate_positions(SolverScratch& s, double h, size_t first, size_t end) {
   }
 }
 
-// Runs fn(first, end) over [0, n) in runs of kBodiesPerChunk, on the pool's threads if any.
-constexpr size_t kBodiesPerChunk = 256;
-template <class F>
-void for_body_chunks(WorkerPool* pool, size_t n, F fn) {
-  const int chunks = static_cast<int>((n + kBodiesPerChunk - 1) / kBodiesPerChunk);
-  auto chunk = [&](int i) {
-    const size_t lo = static_cast<size_t>(i) * kBodiesPerChunk;
-    fn(lo, std::min(lo + kBodiesPerChunk, n));
-  };
-  if (pool != nullptr) {
-    pool->run(chunks, chunk);
-  } else {
-    for (int i = 0; i < chunks; ++i) chunk(i);
-  }
-}
-
 // Bounce: points that approached faster than the threshold and carried load leave with
 // -e times their approach speed.
 void apply_restitution(SolverScratch& s, double threshold) {
@@ -578,24 +584,25 @@ void WorldImpl::solve(const std::vector<int>& awake) {
 
   load_bodies(*this, awake, s);
   gather_contacts(*this, awake, &s.contacts);
-  prepare(*this, s, h);
-  prepare_joints(awake, h);
   // Soft contacts are solved colour by colour in lanes (contact_lanes.h); rigid contacts (the
   // classic settings, with the block solver and split impulses) one by one in id order.
   const bool coloured = !rule.rigid;
+  // Threads only where a colour has chunks enough to share (see kBlocksPerChunk).
+  WorkerPool* workers = pool != nullptr && coloured && s.contacts.size() >= 256 ? pool : nullptr;
+  if (workers != nullptr) workers->begin_busy();
+  prepare(*this, s, h, workers);
+  prepare_joints(awake, h);
   LaneRule lane_solve;
   lane_solve.inv_h = 1.0 / h;
   lane_solve.max_speed = set.max_correction_speed;
   lane_solve.track_max = !s.restitution_rows.empty();
+  lane_solve.want_largest = set.early_exit_tolerance > 0.0;
   lane_solve.soft = make_softness(set.contact_hertz, set.contact_damping_ratio, h);
   lane_solve.static_soft = make_softness(2.0 * set.contact_hertz, set.contact_damping_ratio, h);
   LaneRule lane_relax = lane_solve;
   lane_relax.use_bias = false;
-  // Threads only where a colour has chunks enough to share (see kBlocksPerChunk).
-  WorkerPool* workers = pool != nullptr && coloured && s.rows.size() >= 256 ? pool : nullptr;
-  if (workers != nullptr) workers->begin_busy();
   if (coloured) {
-    colour_contacts(s, &coloured_contacts);
+    colour_contacts(s, &coloured_contacts, workers);
     update_separations(coloured_contacts, s.bodies.data(), workers);
   }
   auto contact_pass = [&](const BiasRule& r, const LaneRule& lr) {
@@ -606,9 +613,8 @@ void WorldImpl::solve(const std::vector<int>& awake) {
     record_speed_before(s);
     // Applied forces, all from the state at the substep's start (explicit), then constraints.
     apply_spring_forces(h);
-    for_body_chunks(workers, awake.size(), [&](size_t lo, size_t hi) {
-      integrate_velocities(*this, awake, s, h, lo, hi);
-    });
+    for_chunks(workers, awake.size(), 256,
+               [&](size_t lo, size_t hi) { integrate_velocities(*this, awake, s, h, lo, hi); });
     track_approach(s, 1.0 / h);
     // Later substeps always start from the impulses of the one before.
     if (set.warm_starting || sub > 0) {
@@ -627,16 +633,16 @@ void WorldImpl::solve(const std::vector<int>& awake) {
       for (int it = 0; it < set.position_iterations; ++it) solve_pseudo(s, rule);
     }
     // Solver slots 1..n hold the awake bodies (0 is the shared static body).
-    for_body_chunks(workers, awake.size(),
-                    [&](size_t lo, size_t hi) { integrate_positions(s, h, lo + 1, hi + 1); });
+    for_chunks(workers, awake.size(), 256,
+               [&](size_t lo, size_t hi) { integrate_positions(s, h, lo + 1, hi + 1); });
     if (coloured) update_separations(coloured_contacts, s.bodies.data(), workers);
     for (int it = 0; it < set.relax_iterations; ++it) {
       solve_joints(false);
       if (contact_pass(relax, lane_relax) < set.early_exit_tolerance) break;
     }
   }
+  if (coloured) unpack_impulses(coloured_contacts, &s, workers);
   if (workers != nullptr) workers->end_busy();
-  if (coloured) unpack_impulses(coloured_contacts, &s);
   apply_restitution(s, set.restitution_threshold);
   store_impulses(*this, s);
   finalize_bodies(*this, awake, s);
@@ -655,7 +661,7 @@ void WorldImpl::prepare_reference_tick() {
   const double h = settings.dt;
   load_bodies(*this, awake, s);
   gather_contacts(*this, awake, &s.contacts);
-  prepare(*this, s, h);
+  prepare(*this, s, h, nullptr);
   prepare_joints(awake, h);
   apply_spring_forces(h);
   integrate_velocities(*this, awake, s, h, 0, awake.size());
