@@ -3,6 +3,7 @@
 // contacts. Pairs are sorted before creation, so contact ids never depend on tree order.
 #include <algorithm>
 
+#include "worker_pool.h"
 #include "world_impl.h"
 
 namespace fulcrum {
@@ -76,18 +77,42 @@ void WorldImpl::update_pairs() {
   // depends only on the shapes, their bodies and joints, none of which this loop changes, so
   // the sorted list is the one filtering after the sort would leave, and a scene of many
   // overlapping filtered shapes does not sort pairs it will never use.
+  // The queries only read (the tree, the shapes, their bodies and joints), so they run in
+  // chunks of moved shapes, on the world's threads when there are many; each chunk keeps its
+  // own pairs, and the sort below makes the chunking invisible.
   std::vector<std::pair<int, int>>& pairs = scratch_pairs;
   pairs.clear();
-  for (int si : move_buffer) {
+  auto query_shape = [&](int si, std::vector<std::pair<int, int>>* out) {
     const AABB& box = tree.fat_aabb(shapes[si].proxy);
     tree.query(box, [&](int proxy) {
       int other = static_cast<int>(tree.user_data(proxy));
       if (other == si) return true;
       if (shapes[other].in_move_buffer && other < si) return true;  // found from its side
       if (!should_collide(si, other)) return true;
-      pairs.emplace_back(std::min(si, other), std::max(si, other));
+      out->emplace_back(std::min(si, other), std::max(si, other));
       return true;
     });
+  };
+  constexpr size_t kShapesPerChunk = 64;
+  const size_t moved = move_buffer.size();
+  if (pool != nullptr && moved >= 4 * kShapesPerChunk) {
+    const int chunks = static_cast<int>((moved + kShapesPerChunk - 1) / kShapesPerChunk);
+    scratch_chunk_pairs.resize(chunks);
+    auto chunk = [&](int i) {
+      std::vector<std::pair<int, int>>& out = scratch_chunk_pairs[i];
+      out.clear();
+      const size_t lo = static_cast<size_t>(i) * kShapesPerChunk;
+      const size_t hi = std::min(lo + kShapesPerChunk, moved);
+      for (size_t k = lo; k < hi; ++k) query_shape(move_buffer[k], &out);
+    };
+    pool->begin_busy();
+    pool->run(chunks, chunk);
+    pool->end_busy();
+    for (int i = 0; i < chunks; ++i) {
+      pairs.insert(pairs.end(), scratch_chunk_pairs[i].begin(), scratch_chunk_pairs[i].end());
+    }
+  } else {
+    for (int si : move_buffer) query_shape(si, &pairs);
   }
   for (int si : move_buffer) shapes[si].in_move_buffer = false;
   move_buffer.clear();

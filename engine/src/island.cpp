@@ -35,13 +35,18 @@ void WorldImpl::update_sleep(const std::vector<int>& awake) {
   // Rest timers.
   std::vector<double>& island_min = scratch_rest;
   island_min.assign(n, 0.0);
+  bool any_rested = false;
   for (int k = 0; k < n; ++k) {
     Body& b = bodies[awake[k]];
     bool resting = settings.enable_sleep && b.enable_sleep && length_squared(b.v) <= lin_tol2 &&
                    b.w * b.w <= ang_tol2;
     b.sleep_time = resting ? b.sleep_time + h : 0.0;
     island_min[k] = b.sleep_time;
+    any_rested = any_rested || b.sleep_time >= settings.time_to_sleep;
   }
+  // An island sleeps only when every body in it has rested long enough: if none has, no
+  // island can, and building them is wasted (a world in motion pays only the timers).
+  if (!any_rested) return;
 
   // Union over touching solid contacts between awake dynamic bodies. A body touching a moving
   // kinematic body may not sleep.

@@ -119,7 +119,8 @@ class WorldImpl {
   // by the World, so that restoring a snapshot keeps it.
   WorkerPool* pool = nullptr;
   std::vector<std::pair<int, int>> scratch_pairs;  // broad phase
-  std::vector<int> scratch_parent;                 // islands
+  std::vector<std::vector<std::pair<int, int>>> scratch_chunk_pairs;
+  std::vector<int> scratch_parent;  // islands
   std::vector<double> scratch_rest, scratch_root_rest;
 };
 
