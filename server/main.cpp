@@ -47,6 +47,9 @@ ABSL_FLAG(int64_t, grace_ms, 5000,
 ABSL_FLAG(int64_t, worker_threads, 0,
           "threads stepping the worlds that run in real time, 0 to 1024; 0: the number of "
           "hardware threads");
+ABSL_FLAG(int64_t, world_threads, 1,
+          "threads each world's step may use, 1 to 64: more than 1 for a few large worlds; 1 "
+          "when many worlds share the cores (same results at any count)");
 ABSL_FLAG(std::string, replay_dir, "",
           "DIR where StartRecording writes replays, created if missing (default: none, "
           "recording is refused)");
@@ -76,6 +79,7 @@ std::vector<const absl::CommandLineFlag*> fulcrum_flags() {
           &absl::GetFlagReflectionHandle(FLAGS_token_file),
           &absl::GetFlagReflectionHandle(FLAGS_grace_ms),
           &absl::GetFlagReflectionHandle(FLAGS_worker_threads),
+          &absl::GetFlagReflectionHandle(FLAGS_world_threads),
           &absl::GetFlagReflectionHandle(FLAGS_replay_dir),
           &absl::GetFlagReflectionHandle(FLAGS_tls_cert),
           &absl::GetFlagReflectionHandle(FLAGS_tls_key),
@@ -249,6 +253,10 @@ int options_from_flags(fulcrum::server::ServerOptions* options, int64_t* grace_m
   if (!in_range(FLAGS_grace_ms, 0, 3600000, grace_ms, &error)) return usage_error(error);
   if (!in_range(FLAGS_worker_threads, 0, 1024, &n, &error)) return usage_error(error);
   options->worker_threads = static_cast<int>(n);
+  if (!in_range(FLAGS_world_threads, 1, fulcrum::World::kMaxThreads, &n, &error)) {
+    return usage_error(error);
+  }
+  options->limits.world_threads = static_cast<int>(n);
   if (!in_range(FLAGS_max_reader_stall_ms, 1, 86400000, &n, &error)) return usage_error(error);
   options->limits.max_reader_stall_ms = n;
   options->replay_dir = absl::GetFlag(FLAGS_replay_dir);

@@ -56,6 +56,9 @@ Status check_vec(const v1::Vec2& v, const std::string& field) {
 
 Session::Session(uint64_t id, std::string name, World world, const Limits& limits)
     : id_(id), name_(std::move(name)), limits_(limits), world_(std::move(world)) {
+  // Checked when the server started (1 to World::kMaxThreads); a refusal leaves one thread.
+  Status threads = world_.set_threads(limits.world_threads);
+  (void)threads;
   refresh_summary_locked(world_.state_hash());  // nobody else can hold the world yet
 }
 

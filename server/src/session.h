@@ -32,6 +32,8 @@ struct Limits {
   // A stream reader whose frame has been in flight (not taken by its connection) for longer
   // than this when a newer frame is published is ended with RESOURCE_EXHAUSTED.
   int64_t max_reader_stall_ms = 10000;
+  // Threads each world's step may use (World::set_threads): the same results at any count.
+  int world_threads = 1;
 };
 
 // A reader of frames (the StreamFrames reactor). offer() must not block: it is called by the

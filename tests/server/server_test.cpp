@@ -168,6 +168,22 @@ TEST_F(ServerTest, StepsMatchALocalWorldBitForBit) {
   }
 }
 
+// --world-threads: every world steps on three threads, bit for bit as one local thread does.
+TEST_F(ServerTest, WorldThreadsStepBitForBitAsOneThread) {
+  ServerOptions options;
+  options.limits.world_threads = 3;
+  start(options);
+  const uint64_t id = create_pyramid();
+  const auto& expected = local_pyramid_hashes(240);
+  int64_t tick = 0;
+  for (uint32_t n : {1u, 59u, 60u}) {
+    Result<client::StepResult> r = client_->step(id, n);
+    ASSERT_TRUE(r.ok()) << r.status().message();
+    tick += n;
+    EXPECT_EQ(r->state_hash, expected[tick]) << "tick " << tick;
+  }
+}
+
 TEST_F(ServerTest, RefusedRequestsLeaveTheWorldUnchanged) {
   start();
   const uint64_t id = create_pyramid();
