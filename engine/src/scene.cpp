@@ -3,6 +3,8 @@
 #include <string>
 #include <variant>
 
+#include "world_impl.h"
+
 namespace fulcrum {
 
 namespace {
@@ -112,6 +114,20 @@ Result<World> build_world(const SceneDef& scene) {
         return at(chain.status(), where + ".chains[" + std::to_string(j) + "]", "chain");
       }
     }
+  }
+  // Each new shape wakes the sleeping bodies it touches (the rule for edits), so a block of
+  // bodies declared asleep would wake itself while it is built. Declared asleep, they stay
+  // asleep, with the velocities they were given; joints below may still wake them.
+  WorldImpl& impl = world.impl();
+  for (size_t i = 0; i < scene.bodies.size(); ++i) {
+    const BodyDef& def = scene.bodies[i].def;
+    Body& b = impl.bodies[ids[i].index];
+    if (def.awake || def.type == BodyType::kStatic || !b.awake) continue;
+    const Vec2 v = b.v;
+    const double w = b.w;
+    impl.set_awake_flag(ids[i].index, false);
+    b.v = v;
+    b.w = w;
   }
   for (size_t i = 0; i < scene.joints.size(); ++i) {
     const SceneJoint& sj = scene.joints[i];

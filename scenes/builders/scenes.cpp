@@ -7,6 +7,7 @@
 #include "fulcrum/trig.h"
 #include "hard_scenes.h"
 #include "joint_scenes.h"
+#include "v3_scenes.h"
 
 namespace fulcrum::scenes {
 
@@ -266,6 +267,9 @@ const std::map<std::string, std::function<SceneDef()>, std::less<>>& registry() 
       {"ragdoll_rain", ragdoll_rain},
       {"mixed", mixed},
       {"tumbler", tumbler},
+      {"rain", rain},
+      {"smash", smash},
+      {"spinner", spinner},
       {"particle_pile", [] { return pile(BodyType::kParticle); }},
       {"circle_pile", [] { return pile(BodyType::kDynamic); }},
   };

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -10,6 +11,7 @@
 
 #include "fulcrum/scene.h"
 #include "fulcrum/status.h"
+#include "fulcrum/world.h"
 
 namespace fulcrum::scenes {
 
@@ -93,8 +95,37 @@ struct RagdollOptions {
 };
 int add_ragdoll(SceneDef* scene, const RagdollOptions& options);
 
+// Box2D v3's ragdoll (its benchmark's "human"): 11 capsules (friction 0.2) and two foot plates
+// (friction 0.05, touching only category 1, the ground), 10 limited revolute joints, each with
+// joint friction (a motor at speed 0 up to a share of friction_torque) and a spring.
+struct HumanOptions {
+  Vec2 feet = Vec2::Zero();       // m
+  double scale = 1.0;             // > 0: 1 is about 1.6 m tall
+  int32_t group = -1;             // collision group of all its shapes
+  double friction_torque = 0.05;  // N m at scale 1
+  double hertz = 0.0;             // joint springs (0: none)
+  double damping_ratio = 0.0;
+};
+int add_human(SceneDef* scene, const HumanOptions& options);
+
+// Creates a scene's bodies (with shapes and chains) and joints in an existing world, in order;
+// its settings are ignored. Returns the new bodies' handles, in the scene's order. On error
+// what was created before it stays.
+Result<std::vector<BodyId>> add_to_world(World& world, const SceneDef& part);
+
+// A built-in scene that edits itself between ticks, as Box2D v3's rain spawns and destroys
+// ragdolls: call before_step(world, step) before each World::step(), with step counting from
+// 0. Deterministic: the edits are a function of the step and the driver's own history.
+class SceneDriver {
+ public:
+  virtual ~SceneDriver() = default;
+  virtual Status before_step(World& world, int64_t step) = 0;
+};
+
 // Named scenes (HARD_CASES.md and the benchmark table), ground included.
 std::vector<std::string> builtin_names();
 Result<SceneDef> builtin(std::string_view name);
+// The driver of a built-in scene that has one ("rain"); null for the others.
+std::unique_ptr<SceneDriver> builtin_driver(std::string_view name);
 
 }  // namespace fulcrum::scenes
