@@ -32,8 +32,8 @@ void WorldImpl::destroy_proxy(int si) {
 // Re-fits the fat boxes of a body's shapes that left them. A shape that stays inside its fat
 // box costs one box computation and no tree work. The new fat box also reaches as far as the
 // body will travel in the next tick, so that fast bodies meet what lies ahead of them before
-// they get there.
-void WorldImpl::synchronize_shapes(int bi) {
+// they get there. With `defer`, the new boxes wait in pending_moves for commit_moves().
+void WorldImpl::synchronize_shapes(int bi, bool defer) {
   const Body& b = bodies[bi];
   Vec2 travel = settings.dt * b.v;
   for (int si : b.shapes) {
@@ -43,12 +43,31 @@ void WorldImpl::synchronize_shapes(int bi) {
     swept.lower += travel.cwiseMin(Vec2::Zero());
     swept.upper += travel.cwiseMax(Vec2::Zero());
     if (tree.fat_aabb(s.proxy).contains(swept)) continue;
-    tree.move_proxy(s.proxy, swept.fattened(settings.aabb_margin));
+    const AABB fat = swept.fattened(settings.aabb_margin);
+    if (defer) {
+      pending_moves.push_back({s.proxy, fat});
+    } else {
+      tree.move_proxy(s.proxy, fat);
+    }
     if (!s.in_move_buffer) {
       s.in_move_buffer = true;
       move_buffer.push_back(si);
     }
   }
+}
+
+// When many leaves moved (a pile in motion), setting their boxes and rebuilding the tree once
+// costs less than re-inserting each. The tree's shape never reaches the results: pairs and
+// query hits are sorted.
+void WorldImpl::commit_moves() {
+  const size_t threshold = std::max<size_t>(64, static_cast<size_t>(tree.proxy_count()) / 8);
+  if (pending_moves.size() >= threshold) {
+    for (const auto& [proxy, box] : pending_moves) tree.set_leaf_box(proxy, box);
+    tree.rebuild();
+  } else {
+    for (const auto& [proxy, box] : pending_moves) tree.move_proxy(proxy, box);
+  }
+  pending_moves.clear();
 }
 
 bool WorldImpl::should_collide(int sa, int sb) const {

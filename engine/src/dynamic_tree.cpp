@@ -78,6 +78,61 @@ void DynamicTree::move_proxy(int proxy_id, const AABB& fat_aabb) {
   insert_leaf(proxy_id);
 }
 
+void DynamicTree::rebuild() {
+  if (root_ == kNullNode) return;
+  // Collect the leaves with their centres, and free every internal node (its children are read
+  // before it is freed).
+  std::vector<LeafCentre>& leaves = scratch_leaves_;
+  std::vector<int>& stack = scratch_stack_;
+  leaves.clear();
+  stack.assign(1, root_);
+  while (!stack.empty()) {
+    const int index = stack.back();
+    stack.pop_back();
+    if (nodes_[index].is_leaf()) {
+      const Vec2 c = nodes_[index].aabb.center();
+      leaves.push_back({{c.x(), c.y()}, index});
+      continue;
+    }
+    stack.push_back(nodes_[index].child1);
+    stack.push_back(nodes_[index].child2);
+    free_node(index);
+  }
+  // A build that depends only on the leaves, not on the old tree.
+  std::sort(leaves.begin(), leaves.end(),
+            [](const LeafCentre& a, const LeafCentre& b) { return a.leaf < b.leaf; });
+  root_ = build_range(leaves.data(), static_cast<int>(leaves.size()));
+  nodes_[root_].parent_or_next = kNullNode;
+}
+
+int DynamicTree::build_range(LeafCentre* leaves, int count) {
+  if (count == 1) return leaves[0].leaf;
+  double lo[2] = {leaves[0].c[0], leaves[0].c[1]};
+  double hi[2] = {lo[0], lo[1]};
+  for (int i = 1; i < count; ++i) {
+    for (int k = 0; k < 2; ++k) {
+      lo[k] = std::min(lo[k], leaves[i].c[k]);
+      hi[k] = std::max(hi[k], leaves[i].c[k]);
+    }
+  }
+  const int axis = hi[0] - lo[0] >= hi[1] - lo[1] ? 0 : 1;
+  const int half = count / 2;
+  std::nth_element(leaves, leaves + half, leaves + count,
+                   [axis](const LeafCentre& a, const LeafCentre& b) {
+                     return a.c[axis] != b.c[axis] ? a.c[axis] < b.c[axis] : a.leaf < b.leaf;
+                   });
+  const int left = build_range(leaves, half);
+  const int right = build_range(leaves + half, count - half);
+  const int node = allocate_node();
+  Node& n = nodes_[node];
+  n.child1 = left;
+  n.child2 = right;
+  nodes_[left].parent_or_next = node;
+  nodes_[right].parent_or_next = node;
+  refit(node);
+  return node;
+}
+
 // Cost of a sibling S for new leaf L: the perimeter of the new parent, perimeter(S u L), plus
 // the growth of every ancestor of S, perimeter(A u L) - perimeter(A). The search descends from
 // the root keeping the cheapest node seen; below a node C, no sibling can cost less than

@@ -25,6 +25,12 @@ class DynamicTree {
   void destroy_proxy(int proxy_id);
   // Replaces a leaf's box (re-inserting the leaf).
   void move_proxy(int proxy_id, const AABB& fat_aabb);
+  // Replaces many leaves' boxes at once: set_leaf_box for each (the tree is not valid in
+  // between), then one rebuild(), which builds every internal node anew, top down, splitting
+  // the leaves at the median of their centres along the wider axis. Cheaper than a
+  // move_proxy each when a large share of the leaves moved.
+  void set_leaf_box(int proxy_id, const AABB& fat_aabb) { nodes_[proxy_id].aabb = fat_aabb; }
+  void rebuild();
 
   const AABB& fat_aabb(int proxy_id) const { return nodes_[proxy_id].aabb; }
   uint64_t user_data(int proxy_id) const { return nodes_[proxy_id].user_data; }
@@ -78,12 +84,20 @@ class DynamicTree {
   // Box and height of an internal node from its children.
   void refit(int index);
   void replace_child(int parent, int old_child, int new_child);
+  struct LeafCentre {
+    double c[2];  // centre of the leaf's box
+    int leaf;
+  };
+  // The subtree over leaves[0, count) (rebuild); returns its root.
+  int build_range(LeafCentre* leaves, int count);
 
   std::vector<Node> nodes_;
   int root_ = kNullNode;
   int free_list_ = kNullNode;
   int node_count_ = 0;  // nodes in the tree (leaves and internal), not on the free list
   int proxy_count_ = 0;
+  std::vector<LeafCentre> scratch_leaves_;  // rebuild
+  std::vector<int> scratch_stack_;
 };
 
 }  // namespace fulcrum

@@ -614,7 +614,8 @@ void World::step() {
   w.solve(awake);
   w.break_joints();
 
-  for (int bi : awake) w.synchronize_shapes(bi);
+  for (int bi : awake) w.synchronize_shapes(bi, true);
+  w.commit_moves();
   w.update_sleep(awake);
 
   for (int bi : awake) {

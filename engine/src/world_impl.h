@@ -46,6 +46,7 @@ class WorldImpl {
 
   DynamicTree tree;
   std::vector<int> move_buffer;  // shape indices whose proxies moved or were created
+  std::vector<std::pair<int, AABB>> pending_moves;  // proxy and new fat box (commit_moves)
 
   StepEvents events;
 
@@ -83,7 +84,8 @@ class WorldImpl {
   // --- broad phase (broad_phase.cpp) ---
   void create_proxy(int shape);
   void destroy_proxy(int shape);
-  void synchronize_shapes(int body);
+  void synchronize_shapes(int body, bool defer = false);
+  void commit_moves();  // the boxes synchronize_shapes(body, true) left pending
   void update_pairs();
   bool should_collide(int shape_a, int shape_b) const;
 

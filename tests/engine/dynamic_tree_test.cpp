@@ -253,6 +253,42 @@ TEST(DynamicTree, QueryMatchesBruteForceAfterMovesAndDestroys) {
   expect_queries_match(f.tree, f.proxies, rng);
 }
 
+// Many leaves moved at once (set_leaf_box, then one rebuild), as the broad phase does when a
+// large share of a world moved: a valid, balanced tree that answers as brute force does, keeps
+// user data, and takes later inserts, moves and destroys.
+TEST(DynamicTree, RebuildAfterBulkMovesMatchesBruteForce) {
+  Rng rng(7);
+  Fixture f;
+  fill(f, rng, 2000);
+  for (auto& [id, box] : f.proxies) {
+    const Vec2 delta(rng.uniform(-3.0, 3.0), rng.uniform(-3.0, 3.0));
+    box = AABB{box.lower + delta, box.upper + delta};
+    f.tree.set_leaf_box(id, box);
+  }
+  f.tree.rebuild();
+  ASSERT_TRUE(f.tree.validate());
+  EXPECT_EQ(f.tree.proxy_count(), 2000);
+  // Median splits: the height is the least possible, ceil(log2(2000)) = 11.
+  EXPECT_EQ(f.tree.height(), 11);
+  expect_queries_match(f.tree, f.proxies, rng);
+  fill(f, rng, 100);
+  for (auto& [id, box] : f.proxies) {
+    if (rng.unit() < 0.2) {
+      box = random_box(rng);
+      f.tree.move_proxy(id, box);
+    }
+  }
+  ASSERT_TRUE(f.tree.validate());
+  expect_queries_match(f.tree, f.proxies, rng);
+  // One leaf: the rebuilt tree is that leaf.
+  DynamicTree single;
+  const int id = single.create_proxy(AABB{Vec2(0.0, 0.0), Vec2(1.0, 1.0)}, 42);
+  single.rebuild();
+  EXPECT_TRUE(single.validate());
+  EXPECT_EQ(single.height(), 0);
+  EXPECT_EQ(single.user_data(id), 42u);
+}
+
 TEST(DynamicTree, ValidateHoldsAfterEveryOperation) {
   Rng rng(3);
   Fixture f;
