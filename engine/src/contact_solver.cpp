@@ -266,8 +266,9 @@ void prepare(WorldImpl& w, SolverScratch& s, double h, WorkerPool* pool) {
 // substep the relative normal acceleration a = (v1 - v0) / h is constant, so a gap s closes
 // at speed sqrt(v0^2 - 2 a s) (v^2 = v0^2 + 2 a (gap - s) at gap = 0): the exact impact speed
 // of the continuous motion, instead of a speed up to |a| h too slow.
-void record_speed_before(SolverScratch& s) {
-  for (int k : s.restitution_rows) {
+void record_speed_before(SolverScratch& s, size_t first, size_t end) {
+  for (size_t r = first; r < end; ++r) {
+    const int k = s.restitution_rows[r];
     const ContactRow& row = s.rows[k];
     for (int i = 0; i < row.count; ++i) {
       s.extras[k].speed_before[i] =
@@ -276,8 +277,12 @@ void record_speed_before(SolverScratch& s) {
   }
 }
 
-void track_approach(SolverScratch& s, double inv_h) {
-  for (int k : s.restitution_rows) {
+// `lanes`: the coloured blocks, whose separations are current (the same numbers
+// current_separation gives, computed the same way); null for rigid contacts.
+void track_approach(SolverScratch& s, double inv_h, const ColouredContacts* lanes, size_t first,
+                    size_t end) {
+  for (size_t r = first; r < end; ++r) {
+    const int k = s.restitution_rows[r];
     const ContactRow& row = s.rows[k];
     ContactRowExtra& extra = s.extras[k];
     const SolverBody& a = s.bodies[row.ia];
@@ -286,7 +291,14 @@ void track_approach(SolverScratch& s, double inv_h) {
       const ContactPointRow& p = row.points[i];
       double v0 = extra.speed_before[i];
       double v1 = normal_speed(a, b, p, row.nx, row.ny);
-      double gap = std::max(current_separation(a, b, p, row.nx, row.ny), 0.0);
+      double separation;
+      if (lanes != nullptr) {
+        const int lane = lanes->lane_of_row[k];
+        separation = lanes->blocks[lane / kBlockLanes].points[i].separation[lane % kBlockLanes];
+      } else {
+        separation = current_separation(a, b, p, row.nx, row.ny);
+      }
+      double gap = std::max(separation, 0.0);
       double accel = (v1 - v0) * inv_h;
       double impact = -std::sqrt(std::max(v0 * v0 - 2.0 * accel * gap, 0.0));
       double speed = v0 < 0.0 || accel < 0.0 ? std::min(v1, impact) : v1;
@@ -610,12 +622,15 @@ void WorldImpl::solve(const std::vector<int>& awake) {
                     : solve_contacts(s, r);
   };
   for (int sub = 0; sub < set.substeps; ++sub) {
-    record_speed_before(s);
+    for_chunks(workers, s.restitution_rows.size(), 256,
+               [&](size_t lo, size_t hi) { record_speed_before(s, lo, hi); });
     // Applied forces, all from the state at the substep's start (explicit), then constraints.
     apply_spring_forces(h);
     for_chunks(workers, awake.size(), 256,
                [&](size_t lo, size_t hi) { integrate_velocities(*this, awake, s, h, lo, hi); });
-    track_approach(s, 1.0 / h);
+    for_chunks(workers, s.restitution_rows.size(), 256, [&](size_t lo, size_t hi) {
+      track_approach(s, 1.0 / h, coloured ? &coloured_contacts : nullptr, lo, hi);
+    });
     // Later substeps always start from the impulses of the one before.
     if (set.warm_starting || sub > 0) {
       warm_start_joints();
