@@ -29,31 +29,71 @@ void WorldImpl::destroy_proxy(int si) {
   s.proxy = kNullIndex;
 }
 
-// Re-fits the fat boxes of a body's shapes that left them. A shape that stays inside its fat
-// box costs one box computation and no tree work. The new fat box also reaches as far as the
-// body will travel in the next tick, so that fast bodies meet what lies ahead of them before
-// they get there. With `defer`, the new boxes wait in pending_moves for commit_moves().
-void WorldImpl::synchronize_shapes(int bi, bool defer) {
+// The new fat box of each of a body's shapes that left its old one, or nothing. A shape that
+// stays inside its fat box costs one box computation and no tree work. The new fat box also
+// reaches as far as the body will travel in the next tick, so that fast bodies meet what lies
+// ahead of them before they get there. Reads only: safe on several threads at once.
+template <class F>
+void WorldImpl::find_moves(int bi, F&& moved) const {
   const Body& b = bodies[bi];
   Vec2 travel = settings.dt * b.v;
   for (int si : b.shapes) {
-    Shape& s = shapes[si];
+    const Shape& s = shapes[si];
     // The box now and where it will be after a tick at this velocity.
     AABB swept = compute_aabb(s.geometry, b.xf);
     swept.lower += travel.cwiseMin(Vec2::Zero());
     swept.upper += travel.cwiseMax(Vec2::Zero());
     if (tree.fat_aabb(s.proxy).contains(swept)) continue;
-    const AABB fat = swept.fattened(settings.aabb_margin);
-    if (defer) {
-      pending_moves.push_back({s.proxy, fat});
-    } else {
-      tree.move_proxy(s.proxy, fat);
+    moved(si, swept.fattened(settings.aabb_margin));
+  }
+}
+
+void WorldImpl::buffer_move(int si) {
+  Shape& s = shapes[si];
+  if (!s.in_move_buffer) {
+    s.in_move_buffer = true;
+    move_buffer.push_back(si);
+  }
+}
+
+void WorldImpl::synchronize_shapes(int bi) {
+  find_moves(bi, [&](int si, const AABB& fat) {
+    tree.move_proxy(shapes[si].proxy, fat);
+    buffer_move(si);
+  });
+}
+
+void WorldImpl::synchronize_awake(const std::vector<int>& awake) {
+  // The boxes are found in chunks of bodies (on the world's threads when there are many), each
+  // chunk keeping its own list; the lists are then taken in chunk order, so the moves are
+  // the same, in the same order, at any thread count.
+  constexpr size_t kBodiesPerChunk = 256;
+  const int chunks = static_cast<int>((awake.size() + kBodiesPerChunk - 1) / kBodiesPerChunk);
+  if (static_cast<int>(scratch_moves.size()) < chunks) scratch_moves.resize(chunks);
+  auto chunk = [&](int i) {
+    std::vector<std::pair<int, AABB>>& out = scratch_moves[i];
+    out.clear();
+    const size_t lo = static_cast<size_t>(i) * kBodiesPerChunk;
+    const size_t hi = std::min(lo + kBodiesPerChunk, awake.size());
+    for (size_t k = lo; k < hi; ++k) {
+      find_moves(awake[k], [&](int si, const AABB& fat) { out.emplace_back(si, fat); });
     }
-    if (!s.in_move_buffer) {
-      s.in_move_buffer = true;
-      move_buffer.push_back(si);
+  };
+  if (pool != nullptr && chunks >= 2) {
+    pool->begin_busy();
+    pool->run(chunks, chunk);
+    pool->end_busy();
+  } else {
+    for (int i = 0; i < chunks; ++i) chunk(i);
+  }
+  pending_moves.clear();
+  for (int i = 0; i < chunks; ++i) {
+    for (const auto& [si, fat] : scratch_moves[i]) {
+      pending_moves.emplace_back(shapes[si].proxy, fat);
+      buffer_move(si);
     }
   }
+  commit_moves();
 }
 
 // When many leaves moved (a pile in motion), setting their boxes and rebuilding the tree once

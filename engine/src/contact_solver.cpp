@@ -554,8 +554,8 @@ void apply_restitution(SolverScratch& s, double threshold) {
   }
 }
 
-void store_impulses(WorldImpl& w, const SolverScratch& s) {
-  for (size_t k = 0; k < s.rows.size(); ++k) {
+void store_impulses(WorldImpl& w, const SolverScratch& s, size_t first, size_t end) {
+  for (size_t k = first; k < end; ++k) {
     const ContactRow& row = s.rows[k];
     Manifold& m = w.contacts[s.extras[k].contact].manifold;
     for (int i = 0; i < row.count; ++i) {
@@ -566,8 +566,9 @@ void store_impulses(WorldImpl& w, const SolverScratch& s) {
 }
 
 // Moves the bodies by what the substeps accumulated.
-void finalize_bodies(WorldImpl& w, const std::vector<int>& awake, const SolverScratch& s) {
-  for (size_t k = 0; k < awake.size(); ++k) {
+void finalize_bodies(WorldImpl& w, const std::vector<int>& awake, const SolverScratch& s,
+                     size_t first, size_t end) {
+  for (size_t k = first; k < end; ++k) {
     Body& b = w.bodies[awake[k]];
     const SolverBody& sb = s.bodies[k + 1];
     b.v = Vec2(sb.vx, sb.vy);
@@ -657,10 +658,13 @@ void WorldImpl::solve(const std::vector<int>& awake) {
     }
   }
   if (coloured) unpack_impulses(coloured_contacts, &s, workers);
-  if (workers != nullptr) workers->end_busy();
   apply_restitution(s, set.restitution_threshold);
-  store_impulses(*this, s);
-  finalize_bodies(*this, awake, s);
+  // Each row writes its own contact, each body its own record.
+  for_chunks(workers, s.rows.size(), 256,
+             [&](size_t lo, size_t hi) { store_impulses(*this, s, lo, hi); });
+  for_chunks(workers, awake.size(), 256,
+             [&](size_t lo, size_t hi) { finalize_bodies(*this, awake, s, lo, hi); });
+  if (workers != nullptr) workers->end_busy();
 }
 
 void WorldImpl::prepare_reference_tick() {

@@ -614,8 +614,7 @@ void World::step() {
   w.solve(awake);
   w.break_joints();
 
-  for (int bi : awake) w.synchronize_shapes(bi, true);
-  w.commit_moves();
+  w.synchronize_awake(awake);
   w.update_sleep(awake);
 
   for (int bi : awake) {

@@ -84,8 +84,15 @@ class WorldImpl {
   // --- broad phase (broad_phase.cpp) ---
   void create_proxy(int shape);
   void destroy_proxy(int shape);
-  void synchronize_shapes(int body, bool defer = false);
-  void commit_moves();  // the boxes synchronize_shapes(body, true) left pending
+  // Re-fits a body's moved shapes in the tree at once (edits).
+  void synchronize_shapes(int body);
+  // The step's re-fit of every awake body's shapes: new boxes found in chunks (on the pool),
+  // then committed together (commit_moves).
+  void synchronize_awake(const std::vector<int>& awake);
+  template <class F>
+  void find_moves(int body, F&& moved) const;
+  void buffer_move(int shape);
+  void commit_moves();  // pending_moves into the tree
   void update_pairs();
   bool should_collide(int shape_a, int shape_b) const;
 
@@ -122,7 +129,8 @@ class WorldImpl {
   WorkerPool* pool = nullptr;
   std::vector<std::pair<int, int>> scratch_pairs;  // broad phase
   std::vector<std::vector<std::pair<int, int>>> scratch_chunk_pairs;
-  std::vector<int> scratch_parent;  // islands
+  std::vector<std::vector<std::pair<int, AABB>>> scratch_moves;  // synchronize_awake
+  std::vector<int> scratch_parent;                               // islands
   std::vector<double> scratch_rest, scratch_root_rest;
 };
 
