@@ -86,20 +86,8 @@ for simd in scalar lanes2 lanes4; do
   threads=1
   [ "$simd" = lanes2 ] && threads=3  # NEON, with the step shared among three threads
   got=$(cross_run --simd "$simd" --threads "$threads") || fail "fulcrum_golden --simd $simd exited with an error under qemu-aarch64"
-  while read -r name ticks final combined; do
-    line=$(grep "^$name " <<< "$got" || true)
-    if [ "$line" = "$name $ticks $final $combined" ]; then
-      passed=$((passed + 1))
-      continue
-    fi
-    failed=$((failed + 1))
-    echo "cross-aarch64: scenario '$name' ($simd) differs on aarch64: got '${line:-no line}'," \
-      "x86-64 gives '$name $ticks $final $combined'"
-    first=$(diff <("$native_bin" --per-tick "$name") \
-      <(cross_run --simd "$simd" --threads "$threads" --per-tick "$name") |
-      grep -m1 '^<' || true)
-    [ -z "$first" ] || echo "cross-aarch64:   first differing tick: $(cut -d' ' -f3 <<< "$first") of $ticks"
-  done <<< "$reference"
+  fulcrum_compare_golden "cross-aarch64 ($simd, $threads threads)" "$reference" "$got" \
+    cross_run --simd "$simd" --threads "$threads"
   [ "$(wc -l <<< "$got")" -eq "$(wc -l <<< "$reference")" ] || {
     failed=$((failed + 1))
     echo "cross-aarch64: aarch64 ($simd) printed $(wc -l <<< "$got") lines, x86-64 $(wc -l <<< "$reference")"

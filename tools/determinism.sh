@@ -80,20 +80,8 @@ for variant in main gcc-O0 clang-O2; do
       continue
     fi
     [ "$status" -eq 0 ] || got=""
-    while read -r name ticks final combined; do
-      line=$(grep "^$name " <<< "$got" || true)
-      if [ "$line" = "$name $ticks $final $combined" ]; then
-        passed=$((passed + 1))
-        continue
-      fi
-      failed=$((failed + 1))
-      echo "determinism: $variant ($simd, $threads threads) differs on golden scenario '$name':" \
-        "got '${line:-no line}', gcc -O2 gives '$name $ticks $final $combined'"
-      first=$(diff <("$FULCRUM_BUILD/bin/fulcrum_golden" --per-tick "$name") \
-        <("$golden_bin" --simd "$simd" --threads "$threads" --per-tick "$name") |
-        grep -m1 '^<' || true)
-      [ -z "$first" ] || echo "determinism:   first differing tick: $(cut -d' ' -f3 <<< "$first") of $ticks"
-    done <<< "$golden_reference"
+    fulcrum_compare_golden "determinism: $variant ($simd, $threads threads)" \
+      "$golden_reference" "$got" "$golden_bin" --simd "$simd" --threads "$threads"
   done
 done
 echo "determinism: $passed passed, $failed failed"

@@ -44,3 +44,27 @@ fulcrum_check_format() {
     find engine proto scenes client server tests bench tools -name '*.cpp' -o -name '*.h')
   (cd "$FULCRUM_ROOT" && clang-format --dry-run -Werror $files)
 }
+
+# Compares fulcrum_golden output GOT with REFERENCE (the native build's) line by line, adding to
+# the caller's `passed` and `failed`. For each scenario that differs it says so, prefixed with
+# LABEL, and names the first differing tick, running the remaining arguments (a command, or a
+# shell function, that prints fulcrum_golden output) with --per-tick NAME against the native
+# build. Usage: fulcrum_compare_golden LABEL REFERENCE GOT COMMAND...
+fulcrum_compare_golden() {
+  local label=$1 reference=$2 got=$3
+  shift 3
+  local name ticks final combined line first
+  while read -r name ticks final combined; do
+    line=$(grep "^$name " <<< "$got" || true)
+    if [ "$line" = "$name $ticks $final $combined" ]; then
+      passed=$((passed + 1))
+      continue
+    fi
+    failed=$((failed + 1))
+    echo "$label differs on golden scenario '$name': got '${line:-no line}'," \
+      "the native gcc -O2 build gives '$name $ticks $final $combined'"
+    first=$(diff <("$FULCRUM_BUILD/bin/fulcrum_golden" --per-tick "$name") \
+      <("$@" --per-tick "$name") | grep -m1 '^<' || true)
+    [ -z "$first" ] || echo "$label:   first differing tick: $(cut -d' ' -f3 <<< "$first") of $ticks"
+  done <<< "$reference"
+}

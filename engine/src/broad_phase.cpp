@@ -79,13 +79,7 @@ void WorldImpl::synchronize_awake(const std::vector<int>& awake) {
       find_moves(awake[k], [&](int si, const AABB& fat) { out.emplace_back(si, fat); });
     }
   };
-  if (pool != nullptr && chunks >= 2) {
-    pool->begin_busy();
-    pool->run(chunks, chunk);
-    pool->end_busy();
-  } else {
-    for (int i = 0; i < chunks; ++i) chunk(i);
-  }
+  run_chunks(chunks >= 2 ? pool : nullptr, chunks, chunk, true);
   pending_moves.clear();
   for (int i = 0; i < chunks; ++i) {
     for (const auto& [si, fat] : scratch_moves[i]) {
@@ -164,9 +158,7 @@ void WorldImpl::update_pairs() {
       const size_t hi = std::min(lo + kShapesPerChunk, moved);
       for (size_t k = lo; k < hi; ++k) query_shape(move_buffer[k], &out);
     };
-    pool->begin_busy();
-    pool->run(chunks, chunk);
-    pool->end_busy();
+    run_chunks(pool, chunks, chunk, true);
     for (int i = 0; i < chunks; ++i) {
       pairs.insert(pairs.end(), scratch_chunk_pairs[i].begin(), scratch_chunk_pairs[i].end());
     }

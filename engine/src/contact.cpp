@@ -189,13 +189,7 @@ void WorldImpl::collide_round(size_t first, size_t end) {
     const size_t hi = std::min(lo + kContactsPerChunk, list.size());
     for (size_t k = lo; k < hi; ++k) refresh(k);
   };
-  if (pool != nullptr && chunks >= 4) {
-    pool->begin_busy();
-    pool->run(chunks, chunk);
-    pool->end_busy();
-  } else {
-    for (int i = 0; i < chunks; ++i) chunk(i);
-  }
+  run_chunks(chunks >= 4 ? pool : nullptr, chunks, chunk, true);
 
   // Then, in id order: boxes that parted destroy their contact; touches wake and report.
   for (size_t k = 0; k < list.size(); ++k) {

@@ -239,11 +239,7 @@ void colour_contacts(const SolverScratch& s, ColouredContacts* out, WorkerPool* 
     }
   };
   const int chunks = static_cast<int>((n_rows + kRowsPerChunk - 1) / kRowsPerChunk);
-  if (pool != nullptr) {
-    pool->run(chunks, fill);
-  } else {
-    for (int i = 0; i < chunks; ++i) fill(i);
-  }
+  run_chunks(pool, chunks, fill);
   // Empty lanes at the end of each colour and of the overflow: the static body on both sides,
   // zero masses, nothing written.
   auto clear_tail = [&](int lane_end) {
@@ -273,11 +269,7 @@ void unpack_impulses(const ColouredContacts& cc, SolverScratch* s, WorkerPool* p
     }
   };
   const int chunks = static_cast<int>((n_rows + kRowsPerChunk - 1) / kRowsPerChunk);
-  if (pool != nullptr) {
-    pool->run(chunks, chunk);
-  } else {
-    for (int i = 0; i < chunks; ++i) chunk(i);
-  }
+  run_chunks(pool, chunks, chunk);
 }
 
 // --- Passes ----------------------------------------------------------------------------------

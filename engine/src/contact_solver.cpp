@@ -244,11 +244,7 @@ void for_chunks(WorkerPool* pool, size_t n, size_t per_chunk, F fn) {
     const size_t lo = static_cast<size_t>(i) * per_chunk;
     fn(lo, std::min(lo + per_chunk, n));
   };
-  if (pool != nullptr) {
-    pool->run(chunks, chunk);
-  } else {
-    for (int i = 0; i < chunks; ++i) chunk(i);
-  }
+  run_chunks(pool, chunks, chunk);
 }
 
 void prepare(WorldImpl& w, SolverScratch& s, double h, WorkerPool* pool) {

@@ -53,4 +53,18 @@ class WorkerPool {
   std::atomic<bool> stop_{false};
 };
 
+// Runs f(i) for every i in [0, chunks): shared among the pool's threads when there is a pool,
+// else in order on this thread. `own_stage` brackets it with begin_busy() / end_busy(), for a
+// stage outside a busy span (the solver keeps its pool busy from start to end).
+template <class F>
+void run_chunks(WorkerPool* pool, int chunks, F& f, bool own_stage = false) {
+  if (pool == nullptr) {
+    for (int i = 0; i < chunks; ++i) f(i);
+    return;
+  }
+  if (own_stage) pool->begin_busy();
+  pool->run(chunks, f);
+  if (own_stage) pool->end_busy();
+}
+
 }  // namespace fulcrum
