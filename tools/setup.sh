@@ -14,6 +14,10 @@ FULCRUM_PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libbox2d-dev
   openssl
+  # The Python client (client/python) and its tests, for /usr/bin/python3; venv, setuptools
+  # and wheel install it into a virtual environment without the network (tests/python).
+  python3-grpcio python3-protobuf python3-numpy python3-pytest
+  python3-venv python3-setuptools python3-wheel
 )
 
 fulcrum_install_packages() {
