@@ -206,7 +206,8 @@ class FrameStream:
 
 def frames_request(world_id, every, bodies, quantized):
     if isinstance(every, bool) or not isinstance(every, int) or not 1 <= every < 2**32:
-        raise invalid_argument("every_ticks", f"must be a whole number in [1, 2^32) (got {every!r})")
+        raise invalid_argument("every_ticks",
+                               f"must be a whole number in [1, 2^32) (got {every!r})")
     if bodies not in BODIES:
         raise invalid_argument("bodies", f"expected one of {sorted(BODIES)} (got {bodies!r})")
     return frames_pb2.StreamFramesRequest(world_id=world_id, every_ticks=every,
