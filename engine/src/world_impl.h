@@ -38,8 +38,9 @@ class WorldImpl {
   std::vector<int> free_joints;
   std::vector<JointId> pending_joint_events;  // destroyed with a body, reported next step
   // Every live contact by its pair of shapes (pair_key): the broad phase asks for each
-  // candidate pair whether it already has one. Only looked up, never iterated, so its order
-  // never reaches the results.
+  // candidate pair whether it already has one. Determinism: an unordered container is safe
+  // here because it is only looked up, never iterated, so its order never reaches the results
+  // (snapshot restore rebuilds it from the contact pool).
   std::unordered_map<uint64_t, int> contact_pairs;
   std::vector<int> awake_bodies;  // unordered set (swap-remove); sorted when a step uses it
   int body_count = 0;
