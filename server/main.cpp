@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <string_view>
@@ -36,6 +37,17 @@ ABSL_FLAG(std::string, listen, "127.0.0.1:50051",
 ABSL_FLAG(int64_t, max_worlds, 64, "worlds alive at once, 1 or more");
 ABSL_FLAG(int64_t, max_bodies, 100000, "live bodies per world, 1 or more");
 ABSL_FLAG(int64_t, max_step_ticks, 1000000, "ticks per Step call, 1 to 4294967295");
+ABSL_FLAG(int64_t, max_shapes, 400000,
+          "live shapes per world (chain segments included), 1 or more; about 0.5 KB each");
+ABSL_FLAG(int64_t, max_shapes_per_body, 1024,
+          "shapes on one dynamic or kinematic body, 1 or more (static bodies: only --max-shapes)");
+ABSL_FLAG(int64_t, max_edits, 100000, "edits per ApplyEdits batch, 1 or more");
+ABSL_FLAG(int64_t, max_batch_work, 10000000,
+          "work one edit batch or one CreateWorld scene may do, 1 or more: about one unit per "
+          "shape created and per shape its box overlaps (10 million is about half a second)");
+ABSL_FLAG(int64_t, max_contacts, 1000000,
+          "live contacts per world, 1 or more; a tick that would pass it does not run (about 0.5 "
+          "KB each)");
 ABSL_FLAG(int64_t, max_message_bytes, 64 << 20,
           "largest request or reply in bytes, 1024 or more; larger requests are refused with "
           "RESOURCE_EXHAUSTED");
@@ -75,6 +87,11 @@ std::vector<const absl::CommandLineFlag*> fulcrum_flags() {
           &absl::GetFlagReflectionHandle(FLAGS_max_worlds),
           &absl::GetFlagReflectionHandle(FLAGS_max_bodies),
           &absl::GetFlagReflectionHandle(FLAGS_max_step_ticks),
+          &absl::GetFlagReflectionHandle(FLAGS_max_shapes),
+          &absl::GetFlagReflectionHandle(FLAGS_max_shapes_per_body),
+          &absl::GetFlagReflectionHandle(FLAGS_max_edits),
+          &absl::GetFlagReflectionHandle(FLAGS_max_batch_work),
+          &absl::GetFlagReflectionHandle(FLAGS_max_contacts),
           &absl::GetFlagReflectionHandle(FLAGS_max_message_bytes),
           &absl::GetFlagReflectionHandle(FLAGS_token_file),
           &absl::GetFlagReflectionHandle(FLAGS_grace_ms),
@@ -248,6 +265,20 @@ int options_from_flags(fulcrum::server::ServerOptions* options, int64_t* grace_m
   options->limits.max_bodies = static_cast<int>(n);
   if (!in_range(FLAGS_max_step_ticks, 1, 0xffffffff, &n, &error)) return usage_error(error);
   options->limits.max_step_ticks = static_cast<uint32_t>(n);
+  if (!in_range(FLAGS_max_shapes, 1, kMaxInt, &n, &error)) return usage_error(error);
+  options->limits.max_shapes = static_cast<int>(n);
+  if (!in_range(FLAGS_max_shapes_per_body, 1, kMaxInt, &n, &error)) return usage_error(error);
+  options->limits.max_shapes_per_body = static_cast<int>(n);
+  if (!in_range(FLAGS_max_edits, 1, kMaxInt, &n, &error)) return usage_error(error);
+  options->limits.max_edits = static_cast<size_t>(n);
+  if (!in_range(FLAGS_max_batch_work, 1, std::numeric_limits<int64_t>::max(), &n, &error)) {
+    return usage_error(error);
+  }
+  options->limits.max_batch_work = static_cast<uint64_t>(n);
+  if (!in_range(FLAGS_max_contacts, 1, std::numeric_limits<int64_t>::max(), &n, &error)) {
+    return usage_error(error);
+  }
+  options->limits.max_contacts = n;
   if (!in_range(FLAGS_max_message_bytes, 1024, kMaxInt, &n, &error)) return usage_error(error);
   options->max_message_bytes = static_cast<int>(n);
   if (!in_range(FLAGS_grace_ms, 0, 3600000, grace_ms, &error)) return usage_error(error);

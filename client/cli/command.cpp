@@ -12,9 +12,7 @@
 namespace fulcrum::cli {
 
 std::string hex64(uint64_t value) {
-  char buf[17];
-  std::snprintf(buf, sizeof(buf), "%016" PRIx64, value);
-  return buf;
+  return World::hash_text(value);
 }
 
 int Invocation::usage_error(const std::string& message) const {

@@ -60,6 +60,14 @@ Status from_grpc(const grpc::Status& s) {
       return Status(StatusCode::kResourceExhausted, s.error_message());
     case grpc::StatusCode::DATA_LOSS:
       return Status(StatusCode::kDataLoss, s.error_message());
+    // Messages of these codes often come from gRPC itself ("failed to connect to all
+    // addresses"), so they keep the code's name in front, as every other code does.
+    case grpc::StatusCode::CANCELLED:
+      return Status(StatusCode::kCancelled, "CANCELLED: " + s.error_message());
+    case grpc::StatusCode::DEADLINE_EXCEEDED:
+      return Status(StatusCode::kDeadlineExceeded, "DEADLINE_EXCEEDED: " + s.error_message());
+    case grpc::StatusCode::UNAVAILABLE:
+      return Status(StatusCode::kUnavailable, "UNAVAILABLE: " + s.error_message());
     default:
       return Status(StatusCode::kInternal,
                     std::string(grpc_code_name(s.error_code())) + ": " + s.error_message());

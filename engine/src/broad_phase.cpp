@@ -2,6 +2,8 @@
 // buffered; once per step each buffered box is queried against the tree and new pairs become
 // contacts. Pairs are sorted before creation, so contact ids never depend on tree order.
 #include <algorithm>
+#include <atomic>
+#include <limits>
 
 #include "worker_pool.h"
 #include "world_impl.h"
@@ -122,17 +124,24 @@ bool WorldImpl::should_collide(int sa, int sb) const {
   return ba.joints.empty() || bb.joints.empty() || !joint_blocks_contact(a.body, b.body);
 }
 
-void WorldImpl::update_pairs() {
-  if (move_buffer.empty()) return;
-  // Collect the pairs that may collide (lower shape index first), sorted so that contacts are
-  // created in an order that does not depend on the tree's shape. A pair of two moved shapes is
-  // taken from one side only. Filtered pairs are dropped as they are found: should_collide
-  // depends only on the shapes, their bodies and joints, none of which this loop changes, so
-  // the sorted list is the one filtering after the sort would leave, and a scene of many
-  // overlapping filtered shapes does not sort pairs it will never use.
-  // The queries only read (the tree, the shapes, their bodies and joints), so they run in
-  // chunks of moved shapes, on the world's threads when there are many; each chunk keeps its
-  // own pairs, and the sort below makes the chunking invisible.
+int64_t WorldImpl::update_pairs() {
+  if (move_buffer.empty()) return 0;
+  // Collect the new pairs that may collide (lower shape index first), sorted so that contacts
+  // are created in an order that does not depend on the tree's shape. A pair of two moved
+  // shapes is taken from one side only. Filtered pairs and pairs that already have a contact
+  // are dropped as they are found: neither test depends on anything this loop changes, so the
+  // sorted list is the one filtering after the sort would leave, and a scene of many
+  // overlapping shapes does not sort pairs it will never use.
+  // The queries only read (the tree, the shapes, their bodies and joints, the contact pairs),
+  // so they run in chunks of moved shapes, on the world's threads when there are many; each
+  // chunk keeps its own pairs, and the sort below makes the chunking invisible.
+  // With a contact limit, `found` counts new pairs across the chunks and the queries stop once
+  // it passes what the limit leaves: the step is then refused whatever the other chunks would
+  // have found, so stopping early cannot change the outcome, and memory stays bounded.
+  const int64_t live = static_cast<int64_t>(contacts.size() - free_contacts.size());
+  const int64_t room = contact_limit > 0 ? std::max<int64_t>(contact_limit - live, 0)
+                                         : std::numeric_limits<int64_t>::max();
+  std::atomic<int64_t> found{0};
   std::vector<std::pair<int, int>>& pairs = scratch_pairs;
   pairs.clear();
   auto query_shape = [&](int si, std::vector<std::pair<int, int>>* out) {
@@ -141,9 +150,9 @@ void WorldImpl::update_pairs() {
       int other = static_cast<int>(tree.user_data(proxy));
       if (other == si) return true;
       if (shapes[other].in_move_buffer && other < si) return true;  // found from its side
-      if (!should_collide(si, other)) return true;
+      if (!should_collide(si, other) || has_contact(si, other)) return true;
       out->emplace_back(std::min(si, other), std::max(si, other));
-      return true;
+      return found.fetch_add(1, std::memory_order_relaxed) < room;
     });
   };
   constexpr size_t kShapesPerChunk = 64;
@@ -156,23 +165,32 @@ void WorldImpl::update_pairs() {
       out.clear();
       const size_t lo = static_cast<size_t>(i) * kShapesPerChunk;
       const size_t hi = std::min(lo + kShapesPerChunk, moved);
-      for (size_t k = lo; k < hi; ++k) query_shape(move_buffer[k], &out);
+      for (size_t k = lo; k < hi && found.load(std::memory_order_relaxed) <= room; ++k) {
+        query_shape(move_buffer[k], &out);
+      }
     };
     run_chunks(pool, chunks, chunk, true);
-    for (int i = 0; i < chunks; ++i) {
-      pairs.insert(pairs.end(), scratch_chunk_pairs[i].begin(), scratch_chunk_pairs[i].end());
+    if (found.load() <= room) {
+      for (int i = 0; i < chunks; ++i) {
+        pairs.insert(pairs.end(), scratch_chunk_pairs[i].begin(), scratch_chunk_pairs[i].end());
+      }
     }
   } else {
-    for (int si : move_buffer) query_shape(si, &pairs);
+    for (size_t k = 0; k < moved && found.load(std::memory_order_relaxed) <= room; ++k) {
+      query_shape(move_buffer[k], &pairs);
+    }
+  }
+  if (found.load() > room) {
+    pairs.clear();
+    for (auto& chunk_pairs : scratch_chunk_pairs) chunk_pairs.clear();
+    return live + found.load();
   }
   for (int si : move_buffer) shapes[si].in_move_buffer = false;
   move_buffer.clear();
 
   std::sort(pairs.begin(), pairs.end());  // each pair was found once: no duplicates to remove
-  for (const auto& [sa, sb] : pairs) {
-    if (has_contact(sa, sb)) continue;
-    create_contact(sa, sb);
-  }
+  for (const auto& [sa, sb] : pairs) create_contact(sa, sb);
+  return 0;
 }
 
 }  // namespace fulcrum

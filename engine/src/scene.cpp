@@ -61,8 +61,55 @@ Result<JointId> create(World& w, const MotorJointDef& d) {
 
 }  // namespace
 
-Result<World> build_world(const SceneDef& scene) {
+namespace {
+
+Status exhausted(std::string message) {
+  return Status(StatusCode::kResourceExhausted, std::move(message));
+}
+
+}  // namespace
+
+size_t chain_segment_count(const ChainDef& chain) {
+  const size_t n = chain.points.size();
+  return chain.loop ? n : (n > 0 ? n - 1 : 0);
+}
+
+Status check_new_shapes(const WorkLimits& limits, int64_t in_world, BodyType type, int on_body,
+                        size_t adding, const std::string& field) {
+  const int64_t world_after = in_world + static_cast<int64_t>(adding);
+  if (limits.max_shapes > 0 && world_after > limits.max_shapes) {
+    return exhausted(field + ": would make " + std::to_string(world_after) +
+                     " shapes in the world; this server allows " +
+                     std::to_string(limits.max_shapes) + " (max_shapes)");
+  }
+  const int64_t body_after = static_cast<int64_t>(on_body) + static_cast<int64_t>(adding);
+  if (limits.max_shapes_per_body > 0 && type != BodyType::kStatic &&
+      body_after > limits.max_shapes_per_body) {
+    return exhausted(field + ": would put " + std::to_string(body_after) +
+                     " shapes on one moving body; this server allows " +
+                     std::to_string(limits.max_shapes_per_body) +
+                     " per dynamic or kinematic body (max_shapes_per_body; static bodies are "
+                     "bound only by max_shapes)");
+  }
+  return {};
+}
+
+Result<World> build_world(const SceneDef& scene, const WorkLimits& limits) {
   FULCRUM_RETURN_IF_ERROR(validate_settings(scene.settings));
+  if (limits.max_bodies > 0 && scene.bodies.size() > static_cast<size_t>(limits.max_bodies)) {
+    return exhausted("bodies: " + std::to_string(scene.bodies.size()) +
+                     " bodies; this server allows " + std::to_string(limits.max_bodies) +
+                     " per world (max_bodies)");
+  }
+  int64_t shapes_so_far = 0;
+  for (size_t i = 0; i < scene.bodies.size(); ++i) {
+    const SceneBody& sb = scene.bodies[i];
+    size_t adding = sb.shapes.size();
+    for (const ChainDef& c : sb.chains) adding += chain_segment_count(c);
+    FULCRUM_RETURN_IF_ERROR(check_new_shapes(limits, shapes_so_far, sb.def.type, 0, adding,
+                                             "bodies[" + std::to_string(i) + "].shapes"));
+    shapes_so_far += static_cast<int64_t>(adding);
+  }
   // Validate everything before creating anything: a bad scene builds nothing.
   for (size_t i = 0; i < scene.bodies.size(); ++i) {
     const SceneBody& sb = scene.bodies[i];
@@ -99,6 +146,7 @@ Result<World> build_world(const SceneDef& scene) {
   for (size_t i = 0; i < scene.bodies.size(); ++i) {
     const SceneBody& sb = scene.bodies[i];
     std::string where = "bodies[" + std::to_string(i) + "]";
+    if (limits.keep_going) FULCRUM_RETURN_IF_ERROR(limits.keep_going().with_prefix(where + ": "));
     Result<BodyId> body = world.create_body(sb.def);
     if (!body.ok()) return at(body.status(), where, "body");
     ids.push_back(*body);
@@ -113,6 +161,14 @@ Result<World> build_world(const SceneDef& scene) {
       if (!chain.ok()) {
         return at(chain.status(), where + ".chains[" + std::to_string(j) + "]", "chain");
       }
+    }
+    if (limits.max_work > 0 && world.edit_work() > limits.max_work) {
+      return exhausted(where + ": building the scene up to this body did " +
+                       std::to_string(world.edit_work()) +
+                       " units of work (shapes created, broad-phase boxes their wake queries "
+                       "visited); this server allows " +
+                       std::to_string(limits.max_work) +
+                       " (max_batch_work). Shapes that overlap many others cost the most.");
     }
   }
   // Each new shape wakes the sleeping bodies it touches (the rule for edits), so a block of

@@ -2,6 +2,7 @@
 // every link between records. A snapshot that passes the check is rebuilt into a fresh
 // WorldImpl (the broad-phase tree from the stored fat boxes) and must hash to the value it was
 // saved with; only then does it replace the world, so a bad snapshot changes nothing.
+#include <cstdio>
 #include <string>
 
 #include "fulcrum/state.h"
@@ -377,6 +378,16 @@ Status World::restore(const WorldSnapshot& s) {
   w.move_buffer = s.move_buffer;
   w.body_count = 0;
   for (const Body& b : w.bodies) w.body_count += b.alive ? 1 : 0;
+  w.shape_count = 0;
+  for (const Shape& sh : w.shapes) w.shape_count += sh.alive ? 1 : 0;
+  // The mass sums are derived: recomputed here, then the body's recorded mass fields are kept
+  // (they went into the recorded hash and are checked against it below).
+  w.mass_sums.assign(w.bodies.size(), WorldImpl::MassSums{});
+  for (size_t bi = 0; bi < w.bodies.size(); ++bi) {
+    if (!w.bodies[bi].alive) continue;
+    WorldImpl::MassSums& sums = w.mass_sums[bi];
+    for (int si : w.bodies[bi].shapes) WorldImpl::add_mass_terms(sums, w.shapes[si]);
+  }
   // The tree's shape never reaches the results (pairs and query hits are sorted), only the
   // boxes do, so inserting in id order is enough.
   for (size_t si = 0; si < w.shapes.size(); ++si) {
@@ -388,7 +399,7 @@ Status World::restore(const WorldSnapshot& s) {
   if (uint64_t got = state_hash(); got != s.state_hash) {
     impl_ = std::move(previous);
     return corrupt("the restored state does not hash to the recorded state_hash (got " +
-                   std::to_string(got) + ", recorded " + std::to_string(s.state_hash) + ")");
+                   World::hash_text(got) + ", recorded " + World::hash_text(s.state_hash) + ")");
   }
   return {};
 }

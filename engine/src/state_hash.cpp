@@ -1,6 +1,7 @@
 // The state hash: 64 bits over the bit patterns of everything that evolves, visited in id
 // order. Never over serialized bytes (protobuf serialization is not canonical).
 #include <bit>
+#include <cstdio>
 #include <cstring>
 
 #include "world_impl.h"
@@ -108,6 +109,12 @@ uint64_t World::state_hash() const {
   for (int i : w.free_shapes) h.add(i);
   for (int i : w.free_contacts) h.add(i);
   return h.value();
+}
+
+std::string World::hash_text(uint64_t hash) {
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(hash));
+  return buf;
 }
 
 }  // namespace fulcrum

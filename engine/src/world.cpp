@@ -42,9 +42,29 @@ int WorldImpl::shape_index(ShapeId id) const {
   return s.alive && s.generation == id.generation ? id.index : kNullIndex;
 }
 
+void WorldImpl::add_mass_terms(MassSums& sums, const Shape& s) {
+  if (s.density == 0.0) return;
+  MassData md = compute_mass(s.geometry, s.density);
+  sums.mass += md.mass;
+  sums.weighted += md.mass * md.center;
+  sums.inertia_origin += md.rotational_inertia + md.mass * dot(md.center, md.center);
+}
+
+void WorldImpl::update_mass(int bi) {
+  MassSums& sums = mass_sums[bi];
+  sums = MassSums{};
+  for (int si : bodies[bi].shapes) add_mass_terms(sums, shapes[si]);
+  finish_mass(bi);
+}
+
+void WorldImpl::add_shape_mass(int bi, int si) {
+  add_mass_terms(mass_sums[bi], shapes[si]);
+  finish_mass(bi);
+}
+
 // Mass, centre of mass and inertia from the shapes' densities. Static and kinematic bodies have
 // infinite mass (inverse 0). A dynamic body without mass gets 1 kg so it still falls.
-void WorldImpl::update_mass(int bi) {
+void WorldImpl::finish_mass(int bi) {
   Body& b = bodies[bi];
   b.mass = b.inv_mass = b.inertia = b.inv_inertia = 0.0;
   b.local_center = Vec2::Zero();
@@ -52,17 +72,9 @@ void WorldImpl::update_mass(int bi) {
     b.center = b.xf.p;
     return;
   }
-  double mass = 0.0;
-  Vec2 weighted = Vec2::Zero();
-  double inertia_origin = 0.0;  // about the body origin
-  for (int si : b.shapes) {
-    const Shape& s = shapes[si];
-    if (s.density == 0.0) continue;
-    MassData md = compute_mass(s.geometry, s.density);
-    mass += md.mass;
-    weighted += md.mass * md.center;
-    inertia_origin += md.rotational_inertia + md.mass * dot(md.center, md.center);
-  }
+  const double mass = mass_sums[bi].mass;
+  const Vec2 weighted = mass_sums[bi].weighted;
+  const double inertia_origin = mass_sums[bi].inertia_origin;
   if (mass > 0.0) {
     b.mass = mass;
     b.inv_mass = 1.0 / mass;
@@ -119,6 +131,7 @@ void WorldImpl::wake_island(int start) {
       int other = edge_side(e) == 0 ? c.body_b : c.body_a;
       if (c.touching && !c.sensor && bodies[other].type != BodyType::kStatic &&
           !bodies[other].awake) {
+        ++edit_work;
         set_awake_flag(other, true);
         stack.push_back(other);
       }
@@ -128,6 +141,7 @@ void WorldImpl::wake_island(int start) {
       const Joint& j = joints[ji];
       int other = j.body_a == bi ? j.body_b : j.body_a;
       if (bodies[other].type != BodyType::kStatic && !bodies[other].awake) {
+        ++edit_work;
         set_awake_flag(other, true);
         stack.push_back(other);
       }
@@ -141,6 +155,7 @@ void WorldImpl::wake_in_box(const AABB& box) {
     hits.push_back(static_cast<int>(tree.user_data(proxy)));
     return true;
   });
+  edit_work += hits.size();
   std::sort(hits.begin(), hits.end());
   for (int si : hits) wake_island(shapes[si].body);
 }
@@ -188,6 +203,7 @@ Result<BodyId> World::create_body(const BodyDef& def) {
   } else {
     bi = static_cast<int>(w.bodies.size());
     w.bodies.emplace_back();
+    w.mass_sums.emplace_back();
   }
   Body& b = w.bodies[bi];
   uint32_t generation = b.generation + 1;
@@ -239,6 +255,7 @@ Status World::destroy_body(BodyId id) {
     Shape& s = w.shapes[si];
     s.alive = false;
     w.free_shapes.push_back(si);
+    --w.shape_count;
   }
   w.set_awake_flag(bi, false);
   Body& b = w.bodies[bi];
@@ -286,6 +303,20 @@ int World::body_count() const {
   return impl_->body_count;
 }
 
+int World::shape_count() const {
+  return impl_->shape_count;
+}
+
+Result<int> World::body_shape_count(BodyId id) const {
+  int bi = impl_->body_index(id);
+  if (bi == kNullIndex) return stale_body(id);
+  return static_cast<int>(impl_->bodies[bi].shapes.size());
+}
+
+uint64_t World::edit_work() const {
+  return impl_->edit_work;
+}
+
 // --- Shapes ------------------------------------------------------------------------------------
 
 namespace {
@@ -317,6 +348,8 @@ int add_shape(WorldImpl& w, int bi, const ShapeDef& def) {
   s.user_data = def.user_data;
   w.bodies[bi].shapes.push_back(si);
   w.create_proxy(si);
+  ++w.shape_count;
+  ++w.edit_work;
   return si;
 }
 
@@ -344,7 +377,7 @@ Result<ShapeId> World::create_shape(BodyId body, const ShapeDef& def) {
         "shape.segment: segments have no mass; put them on static or kinematic bodies");
   }
   int si = add_shape(w, bi, def);
-  w.update_mass(bi);
+  w.add_shape_mass(bi, si);
   w.wake_in_box(w.tree.fat_aabb(w.shapes[si].proxy));
   return w.shape_id(si);
 }
@@ -394,6 +427,7 @@ Status World::destroy_shape(ShapeId id) {
   list.erase(std::find(list.begin(), list.end(), si));
   w.shapes[si].alive = false;
   w.free_shapes.push_back(si);
+  --w.shape_count;
   w.update_mass(bi);
   return {};
 }
@@ -597,13 +631,26 @@ Status World::set_awake(BodyId id, bool awake) {
 //   integrate positions (solve) -> synchronize broad phase -> sleep -> clear forces.
 // Edits arrive between ticks through the API above, so every edit applies at a tick boundary.
 void World::step() {
+  Status refused = try_step();
+  (void)refused;  // only a contact limit refuses a tick, and step()'s callers set none
+}
+
+Status World::try_step() {
   WorldImpl& w = *impl_;
   w.pool = pool_.get();
+  w.contact_limit = contact_limit_;
+  // The broad phase first: it is the one stage that can refuse the tick, and it changes
+  // nothing when it does.
+  if (int64_t would = w.update_pairs(); would > 0) {
+    return Status(StatusCode::kResourceExhausted,
+                  "tick " + std::to_string(w.tick) + " would make at least " +
+                      std::to_string(would) + " contacts, more than the contact limit of " +
+                      std::to_string(contact_limit_));
+  }
   w.events = StepEvents{};
   w.events.joints_destroyed.swap(w.pending_joint_events);
   ++w.step_stamp;
 
-  w.update_pairs();
   w.collide();
 
   // The awake set in id order: every later stage visits bodies and contacts in this order.
@@ -634,6 +681,16 @@ void World::step() {
   std::sort(w.events.sensor_begin.begin(), w.events.sensor_begin.end(), by_sensor);
   std::sort(w.events.sensor_end.begin(), w.events.sensor_end.end(), by_sensor);
   ++w.tick;
+  return {};
+}
+
+Status World::set_contact_limit(int64_t limit) {
+  if (limit < 0) {
+    return invalid_argument("contact_limit: must be >= 0, 0 for none (got " +
+                            std::to_string(limit) + ")");
+  }
+  contact_limit_ = limit;
+  return {};
 }
 
 int64_t World::tick() const {

@@ -44,6 +44,22 @@ class WorldImpl {
   std::unordered_map<uint64_t, int> contact_pairs;
   std::vector<int> awake_bodies;  // unordered set (swap-remove); sorted when a step uses it
   int body_count = 0;
+  int shape_count = 0;
+
+  // The running sums behind each body's mass (update_mass), indexed like `bodies`. They are
+  // derived from the shapes, so they are not state: restore recomputes them. Adding a shape
+  // adds its terms in the order a full recomputation would, so the bits are the same either
+  // way, and a body of n shapes is built in O(n), not O(n^2).
+  struct MassSums {
+    double mass = 0.0;
+    Vec2 weighted = Vec2::Zero();  // mass times centre, summed
+    double inertia_origin = 0.0;   // about the body origin
+  };
+  std::vector<MassSums> mass_sums;
+  static void add_mass_terms(MassSums& sums, const Shape& shape);
+  // Work done by edits since the world was built or restored (World::edit_work): shapes and
+  // joints created, broad-phase leaves visited and bodies woken. Not state.
+  uint64_t edit_work = 0;
 
   DynamicTree tree;
   std::vector<int> move_buffer;  // shape indices whose proxies moved or were created
@@ -75,7 +91,12 @@ class WorldImpl {
   void break_joints();
 
   // --- bodies (world.cpp) ---
+  // Recomputes the body's mass sums from all its shapes, then its mass (finish_mass).
   void update_mass(int body);
+  // Adds one new shape's terms to the body's sums, then finishes its mass.
+  void add_shape_mass(int body, int shape);
+  // Mass, inverse mass, centre and inertia from the body's sums.
+  void finish_mass(int body);
   void set_awake_flag(int body, bool awake);
   // Wakes a sleeping dynamic body and everything resting on it (its former island).
   void wake_island(int body);
@@ -94,7 +115,10 @@ class WorldImpl {
   void find_moves(int body, F&& moved) const;
   void buffer_move(int shape);
   void commit_moves();  // pending_moves into the tree
-  void update_pairs();
+  // Finds the new pairs of the moved shapes and creates their contacts. When they would take
+  // the live contacts past `contact_limit` (> 0) it creates none, keeps the moved shapes
+  // buffered and returns the number of live contacts it would have made (else 0).
+  int64_t update_pairs();
   bool should_collide(int shape_a, int shape_b) const;
 
   // --- contacts (contact.cpp) ---
@@ -128,6 +152,7 @@ class WorldImpl {
   // The threads the step may use (World::set_threads); null: the caller's thread alone. Owned
   // by the World, so that restoring a snapshot keeps it.
   WorkerPool* pool = nullptr;
+  int64_t contact_limit = 0;                       // World::set_contact_limit, set by each step
   std::vector<std::pair<int, int>> scratch_pairs;  // broad phase
   std::vector<std::vector<std::pair<int, int>>> scratch_chunk_pairs;
   std::vector<std::vector<std::pair<int, AABB>>> scratch_moves;  // synchronize_awake

@@ -30,11 +30,25 @@ JointId joint(const v1::Handle& h) {
   return JointId{h.index(), h.generation()};
 }
 
-Status apply_one(World* w, const v1::Edit& e, const std::string& path, EditOutcome* out) {
+Status exhausted(std::string message) {
+  return Status(StatusCode::kResourceExhausted, std::move(message));
+}
+
+Status apply_one(World* w, const v1::Edit& e, const std::string& path, const EditLimits& limits,
+                 EditOutcome* out) {
   switch (e.kind_case()) {
     case v1::Edit::kCreateBody: {
+      if (limits.max_bodies > 0 && w->body_count() >= limits.max_bodies) {
+        return exhausted(path + ": would make " + std::to_string(w->body_count() + 1) +
+                         " bodies; this server allows " + std::to_string(limits.max_bodies) +
+                         " per world (max_bodies)");
+      }
       SceneBody sb;
       FULCRUM_RETURN_IF_ERROR(scene_body_from_proto(e.create_body(), path, &sb));
+      size_t adding = sb.shapes.size();
+      for (const ChainDef& c : sb.chains) adding += chain_segment_count(c);
+      FULCRUM_RETURN_IF_ERROR(
+          check_new_shapes(limits, w->shape_count(), sb.def.type, 0, adding, path + ".shapes"));
       Result<BodyId> id = w->create_body(sb.def);
       if (!id.ok()) return id.status();
       out->bodies.push_back(*id);
@@ -55,6 +69,14 @@ Status apply_one(World* w, const v1::Edit& e, const std::string& path, EditOutco
     case v1::Edit::kCreateShape: {
       ShapeDef def;
       FULCRUM_RETURN_IF_ERROR(scene_shape_from_proto(e.create_shape().shape(), path, &def));
+      if (limits.max_shapes > 0 || limits.max_shapes_per_body > 0) {
+        Result<BodyState> on = w->body_state(body(e.create_shape().body()));
+        Result<int> count = w->body_shape_count(body(e.create_shape().body()));
+        if (on.ok() && count.ok()) {  // a stale handle is refused by create_shape below
+          FULCRUM_RETURN_IF_ERROR(
+              check_new_shapes(limits, w->shape_count(), on->type, *count, 1, path + ".shape"));
+        }
+      }
       Result<ShapeId> id = w->create_shape(body(e.create_shape().body()), def);
       if (!id.ok()) return id.status();
       out->shapes.push_back(*id);
@@ -155,26 +177,49 @@ Status located(const Status& s, const std::string& path) {
 }  // namespace
 
 Result<EditOutcome> apply_edit_batch(World* world, const v1::EditBatch& batch, size_t max_edits) {
+  EditLimits limits;
+  limits.max_edits = max_edits;
+  return apply_edit_batch(world, batch, limits);
+}
+
+Result<EditOutcome> apply_edit_batch(World* world, const v1::EditBatch& batch,
+                                     const EditLimits& limits) {
   if (batch.edits_size() == 0) return invalid_argument("edits: the batch is empty");
-  if (static_cast<size_t>(batch.edits_size()) > max_edits) {
-    return Status(StatusCode::kResourceExhausted, "edits: " + std::to_string(batch.edits_size()) +
-                                                      " edits, at most " +
-                                                      std::to_string(max_edits) + " per batch");
+  if (static_cast<size_t>(batch.edits_size()) > limits.max_edits) {
+    return Status(StatusCode::kResourceExhausted,
+                  "edits: " + std::to_string(batch.edits_size()) + " edits, at most " +
+                      std::to_string(limits.max_edits) + " per batch (max_edits)");
   }
   WorldSnapshot before = world->snapshot();
+  const uint64_t work_before = world->edit_work();
   EditOutcome out;
+  auto refuse = [&](const Status& st) -> Result<EditOutcome> {
+    // The snapshot came from this world a moment ago; putting it back cannot fail.
+    Status back = world->restore(before);
+    (void)back;
+    return st;
+  };
   for (int i = 0; i < batch.edits_size(); ++i) {
     const v1::Edit& e = batch.edits(i);
     std::string path = "edits[" + std::to_string(i) + "]";
+    if (limits.keep_going) {
+      if (Status go = limits.keep_going(); !go.ok()) {
+        return refuse(go.with_prefix("stopped before " + path + ", nothing applied: "));
+      }
+    }
     if (e.kind_case() != v1::Edit::KIND_NOT_SET) {
       path += "." + std::string(e.GetDescriptor()->FindFieldByNumber(e.kind_case())->name());
     }
-    Status st = apply_one(world, e, path, &out);
-    if (!st.ok()) {
-      // The snapshot came from this world a moment ago; putting it back cannot fail.
-      Status back = world->restore(before);
-      (void)back;
-      return located(st, path);
+    Status st = apply_one(world, e, path, limits, &out);
+    if (!st.ok()) return refuse(located(st, path));
+    const uint64_t work = world->edit_work() - work_before;
+    if (limits.max_work > 0 && work > limits.max_work) {
+      return refuse(exhausted(
+          path + ": the batch's edits up to here did " + std::to_string(work) +
+          " units of work (shapes created, broad-phase boxes their wake queries visited); this "
+          "server allows " +
+          std::to_string(limits.max_work) +
+          " per batch (max_batch_work). Shapes that overlap many others cost the most."));
     }
   }
   return out;

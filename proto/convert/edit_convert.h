@@ -3,9 +3,12 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
+#include "fulcrum/scene.h"
 #include "fulcrum/status.h"
 #include "fulcrum/v1/edit.pb.h"
 #include "fulcrum/world.h"
@@ -19,10 +22,17 @@ struct EditOutcome {
   std::vector<JointId> joints;
 };
 
+// What one batch may do (WorkLimits, fulcrum/scene.h), and how many edits it may hold.
+struct EditLimits : WorkLimits {
+  size_t max_edits = 100000;  // edits per batch (max_edits)
+};
+
 // Applies the batch in order. If any edit is refused the world is put back exactly as it was
 // (bit for bit, handles included) and the error names the edit and field, e.g.
-// "edits[3].set_velocity.linear: must be finite (got (nan, 0))". A batch of more than
-// max_edits edits is refused before anything is applied.
+// "edits[3].set_velocity.linear: must be finite (got nan)". A batch of more than max_edits
+// edits is refused before anything is applied.
+Result<EditOutcome> apply_edit_batch(World* world, const v1::EditBatch& batch,
+                                     const EditLimits& limits);
 Result<EditOutcome> apply_edit_batch(World* world, const v1::EditBatch& batch,
                                      size_t max_edits = 100000);
 

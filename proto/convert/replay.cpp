@@ -184,12 +184,6 @@ Result<v1::Snapshot> keyframe_of(const v1::ReplayTick& t) {
   return s;
 }
 
-std::string hex(uint64_t h) {
-  char buf[20];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
-  return buf;
-}
-
 }  // namespace
 
 Result<ReplayReport> verify_replay(const ReplayContents& replay) {
@@ -234,8 +228,8 @@ Result<ReplayReport> verify_replay(const ReplayContents& replay) {
     if (diverged_at == replay.ticks.size() && (hash_differs || !keyframe_diff.empty())) {
       diverged_at = i;
       report.first_divergent_tick = t.tick();
-      report.detail = hash_differs ? "state hash " + hex(world.state_hash()) + ", recorded " +
-                                         hex(t.state_hash())
+      report.detail = hash_differs ? "state hash " + World::hash_text(world.state_hash()) +
+                                         ", recorded " + World::hash_text(t.state_hash())
                                    : "state hash matches but the keyframe differs";
     }
     // Once diverged, run on to the first keyframe to say what differs.

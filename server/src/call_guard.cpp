@@ -2,31 +2,38 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include <cctype>
 #include <string_view>
 
 #include "stats.h"
 
 namespace fulcrum::server {
 
+BearerCheck check_bearer(const grpc::ServerContextBase& context, const std::string& token) {
+  const auto& metadata = context.client_metadata();
+  auto it = metadata.find("authorization");
+  if (it == metadata.end()) return BearerCheck::kMissing;
+  std::string_view value(it->second.data(), it->second.size());
+  constexpr std::string_view kScheme = "bearer";
+  if (value.size() <= kScheme.size() || value[kScheme.size()] != ' ') return BearerCheck::kWrong;
+  for (size_t i = 0; i < kScheme.size(); ++i) {
+    if (std::tolower(static_cast<unsigned char>(value[i])) != kScheme[i]) {
+      return BearerCheck::kWrong;
+    }
+  }
+  value.remove_prefix(kScheme.size());
+  while (!value.empty() && value.front() == ' ') value.remove_prefix(1);
+  if (value.size() != token.size()) return BearerCheck::kWrong;
+  unsigned char diff = 0;  // no early exit: the time says nothing about the guess
+  for (size_t i = 0; i < value.size(); ++i) {
+    diff |= static_cast<unsigned char>(value[i] ^ token[i]);
+  }
+  return diff == 0 ? BearerCheck::kMatches : BearerCheck::kWrong;
+}
+
 namespace {
 
 using grpc::experimental::InterceptionHookPoints;
-
-bool token_matches(const grpc::ServerContextBase& context, const std::string& token) {
-  const auto& metadata = context.client_metadata();
-  auto it = metadata.find("authorization");
-  if (it == metadata.end()) return false;
-  const std::string_view value(it->second.data(), it->second.size());
-  constexpr std::string_view kPrefix = "Bearer ";
-  if (value.substr(0, kPrefix.size()) != kPrefix) return false;
-  const std::string_view given = value.substr(kPrefix.size());
-  if (given.size() != token.size()) return false;
-  unsigned char diff = 0;  // no early exit: the time says nothing about the guess
-  for (size_t i = 0; i < given.size(); ++i) {
-    diff |= static_cast<unsigned char>(given[i] ^ token[i]);
-  }
-  return diff == 0;
-}
 
 class CallGuard final : public grpc::experimental::Interceptor {
  public:
@@ -45,7 +52,8 @@ class CallGuard final : public grpc::experimental::Interceptor {
   void Intercept(grpc::experimental::InterceptorBatchMethods* methods) override {
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_INITIAL_METADATA)) {
       const bool guarded = !token_.empty() && method_.rfind("/grpc.reflection.", 0) == 0;
-      locked_out_ = guarded && !token_matches(*info_->server_context(), token_);
+      locked_out_ =
+          guarded && check_bearer(*info_->server_context(), token_) != BearerCheck::kMatches;
     }
     if (locked_out_ &&
         methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_MESSAGE)) {

@@ -12,9 +12,17 @@
 #include <string>
 #include <vector>
 
+#include <grpcpp/server_context.h>
 #include <grpcpp/support/server_interceptor.h>
 
 namespace fulcrum::server {
+
+// What a call's `authorization` header says about the server's bearer token. The scheme is
+// matched case-insensitively, as HTTP authentication schemes are (RFC 9110, section 11.1),
+// spaces after it are skipped, and the token is compared in time that does not depend on
+// where it differs.
+enum class BearerCheck { kMissing, kWrong, kMatches };
+BearerCheck check_bearer(const grpc::ServerContextBase& context, const std::string& token);
 
 // `in_flight` counts the calls to Fulcrum's own services whose guard exists, from the call's
 // start until gRPC destroys it after the final status. Health and reflection calls are not

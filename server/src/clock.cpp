@@ -46,6 +46,7 @@ void RealTimeClock::to_proto(v1::RealTimeInfo* out) const {
   out->set_wakes(wakes);
   out->set_max_ticks_in_a_wake(max_ticks_in_a_wake);
   out->set_busy_retries(busy_retries);
+  out->set_paused_reason(paused_reason);
 }
 
 // --- Session: run mode and one wake -----------------------------------------------------------
@@ -135,8 +136,23 @@ std::optional<SteadyClock::time_point> Session::run_due_ticks(SteadyClock::time_
   if (due > 0) {
     const int64_t run = std::min<int64_t>(due, clock_.max_catch_up);
     const auto stepping = SteadyClock::now();
-    for (int64_t i = 0; i < run; ++i) tick_locked();
-    counters().add_steps(static_cast<uint32_t>(run), SteadyClock::now() - stepping);
+    int64_t ran = 0;
+    Status refused;
+    while (ran < run && (refused = tick_locked()).ok()) ++ran;
+    counters().add_steps(static_cast<uint32_t>(ran), SteadyClock::now() - stepping);
+    if (!refused.ok()) {
+      // A tick that cannot run will not run at the next wake either: the world pauses, and
+      // the reason stays in RealTimeInfo for whoever looks.
+      clock_.mode = v1::RUN_MODE_PAUSED;
+      clock_.paused_reason = refused.message();
+      clock_.ticks_run += ran;
+      log_event("world_paused",
+                {{"world", id_}, {"tick", world_.tick()}, {"reason", refused.message()}});
+      refresh_summary_locked(world_.state_hash());
+      lock.unlock();
+      deliver_first_frames();
+      return std::nullopt;
+    }
     clock_.slots += due;  // the ticks beyond the cap are dropped from the schedule
     clock_.ticks_run += run;
     ++clock_.wakes;
@@ -195,7 +211,7 @@ RealTimePool::~RealTimePool() {
 
 Status RealTimePool::start(std::shared_ptr<Session> session, SteadyClock::time_point first_due) {
   std::lock_guard<std::mutex> lock(mu_);
-  if (stopping_) return Status(StatusCode::kInternal, "UNAVAILABLE: the server is stopping");
+  if (stopping_) return Status(StatusCode::kUnavailable, "the server is stopping");
   const Session* key = session.get();
   auto it = entries_.find(key);
   if (it != entries_.end()) {

@@ -56,6 +56,7 @@ struct RealTimeClock {
   int64_t wakes = 0;
   uint32_t max_ticks_in_a_wake = 0;
   int64_t busy_retries = 0;
+  std::string paused_reason;  // RealTimeInfo.paused_reason
 
   // Dropped ticks are logged at most once a second per world.
   SteadyClock::time_point last_log;

@@ -10,7 +10,9 @@
 
 #include <filesystem>
 
+#include "call_guard.h"
 #include "fulcrum/scene.h"
+#include "fulcrum/state.h"
 #include "replay_download.h"
 #include "scene_convert.h"
 #include "stats.h"
@@ -31,6 +33,12 @@ grpc::Status to_grpc_status(const Status& status) {
       return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED, status.message());
     case StatusCode::kDataLoss:
       return grpc::Status(grpc::StatusCode::DATA_LOSS, status.message());
+    case StatusCode::kCancelled:
+      return grpc::Status(grpc::StatusCode::CANCELLED, status.message());
+    case StatusCode::kDeadlineExceeded:
+      return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED, status.message());
+    case StatusCode::kUnavailable:
+      return grpc::Status(grpc::StatusCode::UNAVAILABLE, status.message());
     case StatusCode::kInternal:
       break;
   }
@@ -77,15 +85,6 @@ namespace {
 
 std::optional<int64_t> optional_tick(bool has, int64_t value) {
   return has ? std::optional<int64_t>(value) : std::nullopt;
-}
-
-// Compares without stopping at the first difference, so the time taken says nothing about
-// how much of the token a caller guessed.
-bool same_secret(std::string_view a, std::string_view b) {
-  if (a.size() != b.size()) return false;
-  unsigned char diff = 0;
-  for (size_t i = 0; i < a.size(); ++i) diff |= static_cast<unsigned char>(a[i] ^ b[i]);
-  return diff == 0;
 }
 
 // A stream that ends at once with an error (bad request, unknown world).
@@ -301,17 +300,14 @@ void PhysicsService::begin_shutdown() {
 
 grpc::Status PhysicsService::check_token(const grpc::ServerContextBase& context) const {
   if (token_.empty()) return grpc::Status::OK;
-  const auto& metadata = context.client_metadata();
-  auto it = metadata.find("authorization");
-  if (it == metadata.end()) {
-    return grpc::Status(grpc::StatusCode::UNAUTHENTICATED,
-                        "authorization: missing (expected \"Bearer <token>\")");
-  }
-  const std::string_view value(it->second.data(), it->second.size());
-  constexpr std::string_view kPrefix = "Bearer ";
-  if (value.substr(0, kPrefix.size()) != kPrefix ||
-      !same_secret(value.substr(kPrefix.size()), token_)) {
-    return grpc::Status(grpc::StatusCode::UNAUTHENTICATED, "authorization: wrong token");
+  switch (check_bearer(context, token_)) {
+    case BearerCheck::kMissing:
+      return grpc::Status(grpc::StatusCode::UNAUTHENTICATED,
+                          "authorization: missing (expected \"Bearer <token>\")");
+    case BearerCheck::kWrong:
+      return grpc::Status(grpc::StatusCode::UNAUTHENTICATED, "authorization: wrong token");
+    case BearerCheck::kMatches:
+      break;
   }
   return grpc::Status::OK;
 }
@@ -336,14 +332,8 @@ grpc::Status PhysicsService::CreateWorld(grpc::ServerContext* context,
   }
   Result<SceneDef> scene = scene_from_proto(request->scene());
   if (!scene.ok()) return to_grpc_status(scene.status().with_prefix("scene."));
-  // Checked before building: a scene over the limit is refused without allocating it.
-  if (static_cast<int64_t>(scene->bodies.size()) > registry_->limits().max_bodies) {
-    return to_grpc_status(
-        Status(StatusCode::kResourceExhausted,
-               "scene: " + std::to_string(scene->bodies.size()) + " bodies; this server allows " +
-                   std::to_string(registry_->limits().max_bodies) + " per world"));
-  }
-  Result<World> world = build_world(*scene);
+  // Counts are checked before building: a scene over a limit is refused without allocating it.
+  Result<World> world = build_world(*scene, work_limits(context));
   if (!world.ok()) return to_grpc_status(world.status().with_prefix("scene."));
   Result<std::shared_ptr<Session>> session =
       registry_->create(request->scene().name(), std::move(world).value());
@@ -385,7 +375,7 @@ grpc::Status PhysicsService::ApplyEdits(grpc::ServerContext* context,
   if (!session.ok()) return to_grpc_status(session.status());
   return to_grpc_status((*session)->apply_edits(
       request->batch(), optional_tick(request->has_expected_tick(), request->expected_tick()),
-      reply));
+      keep_going(context), reply));
 }
 
 grpc::Status PhysicsService::Step(grpc::ServerContext* context, const v1::StepRequest* request,
@@ -393,9 +383,40 @@ grpc::Status PhysicsService::Step(grpc::ServerContext* context, const v1::StepRe
   FULCRUM_ADMIT_CALL(context);
   auto session = registry_->find(request->world_id());
   if (!session.ok()) return to_grpc_status(session.status());
-  return to_grpc_status((*session)->step(
+  const Status status = (*session)->step(
       request->ticks(), optional_tick(request->has_expected_tick(), request->expected_tick()),
-      request->include_snapshot(), reply));
+      request->include_snapshot(), keep_going(context), reply);
+  if (!status.ok() && reply->state_hash() != 0) {
+    // Stopped part way: the ticks run are kept, and the trailers say where the world is.
+    context->AddTrailingMetadata("fulcrum-tick", std::to_string(reply->tick()));
+    context->AddTrailingMetadata("fulcrum-state-hash", World::hash_text(reply->state_hash()));
+  }
+  return to_grpc_status(status);
+}
+
+std::function<Status()> PhysicsService::keep_going(const grpc::ServerContext* context) const {
+  return [this, context]() -> Status {
+    if (abandoning_.load(std::memory_order_relaxed)) {
+      return Status(StatusCode::kUnavailable,
+                    "the server is shutting down and the call's grace period is over");
+    }
+    if (context->deadline() <= std::chrono::system_clock::now()) {
+      return Status(StatusCode::kDeadlineExceeded, "the call's deadline passed");
+    }
+    if (context->IsCancelled()) return Status(StatusCode::kCancelled, "the call was cancelled");
+    return {};
+  };
+}
+
+WorkLimits PhysicsService::work_limits(const grpc::ServerContext* context) const {
+  const Limits& limits = registry_->limits();
+  WorkLimits out;
+  out.max_bodies = limits.max_bodies;
+  out.max_shapes = limits.max_shapes;
+  out.max_shapes_per_body = limits.max_shapes_per_body;
+  out.max_work = limits.max_batch_work;
+  out.keep_going = keep_going(context);
+  return out;
 }
 
 grpc::Status PhysicsService::GetSnapshot(grpc::ServerContext* context,

@@ -11,6 +11,7 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include "fulcrum/scene.h"
 #include "fulcrum/status.h"
 #include "fulcrum/v1/service.grpc.pb.h"
 #include "session.h"
@@ -67,14 +68,22 @@ class PhysicsService final
 
   // New streams are refused and open ones end with UNAVAILABLE.
   void begin_shutdown();
+  // The grace period is over: calls still running stop at their next check (between ticks,
+  // edits or scene bodies) with UNAVAILABLE.
+  void abandon_calls() { abandoning_ = true; }
 
  private:
   grpc::Status check_token(const grpc::ServerContextBase& context) const;
+  // What long calls ask between ticks and edits: whether to go on.
+  std::function<Status()> keep_going(const grpc::ServerContext* context) const;
+  // The limits the registry's worlds are built under.
+  WorkLimits work_limits(const grpc::ServerContext* context) const;
 
   Registry* registry_;
   const std::string token_;
   std::unique_ptr<FrameSender> sender_;  // hands frames to readers off the stepping threads
   std::atomic<bool> shutting_down_{false};
+  std::atomic<bool> abandoning_{false};
 };
 
 }  // namespace fulcrum::server

@@ -74,7 +74,10 @@ Result<std::unique_ptr<Server>> Server::start(const ServerOptions& options) {
   server->port_ = port;
   server->address_ =
       options.listen.substr(0, options.listen.rfind(':')) + ":" + std::to_string(port);
+  // Health answers for the whole server ("") and for the Physics service by name.
   server->server_->GetHealthCheckService()->SetServingStatus(true);
+  server->server_->GetHealthCheckService()->SetServingStatus(v1::Physics::service_full_name(),
+                                                             true);
   return server;
 }
 
@@ -102,6 +105,7 @@ void Server::shutdown(std::chrono::milliseconds grace) {
   while (calls_in_flight_->load() > 0 && std::chrono::steady_clock::now() < deadline) {
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }
+  service_->abandon_calls();
   server_->Shutdown(std::chrono::system_clock::now());
   server_->Wait();
   registry_->close_all_recordings();  // after Wait: no call can open another

@@ -2,9 +2,11 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <utility>
 
 #include "edit_convert.h"
+#include "fulcrum/scene.h"
 #include "scene_convert.h"
 #include "snapshot_convert.h"
 #include "stats.h"
@@ -59,6 +61,8 @@ Session::Session(uint64_t id, std::string name, World world, const Limits& limit
   // Checked when the server started (1 to World::kMaxThreads); a refusal leaves one thread.
   Status threads = world_.set_threads(limits.world_threads);
   (void)threads;
+  Status contacts = world_.set_contact_limit(limits.max_contacts);  // checked >= 0 at start
+  (void)contacts;
   refresh_summary_locked(world_.state_hash());  // nobody else can hold the world yet
 }
 
@@ -75,13 +79,19 @@ void Session::refresh_summary_locked(uint64_t state_hash) {
   runtime_to_proto_locked(&summary_);
 }
 
-void Session::tick_locked() {
-  world_.step();
+Status Session::tick_locked() {
+  if (Status refused = world_.try_step(); !refused.ok()) {
+    return Status(refused.code(),
+                  "world " + std::to_string(id_) + ": " + refused.message() +
+                      " (max_contacts; overlapping shapes make contacts grow with the square of "
+                      "their number), so the tick did not run");
+  }
   if (recorder_) {
     Status recorded = recorder_->after_tick(world_);
     if (!recorded.ok()) end_recording_locked(recorded.message());
   }
   publish_tick_locked();
+  return {};
 }
 
 void Session::info(v1::WorldInfo* out) {
@@ -105,23 +115,19 @@ void Session::summary(v1::WorldInfo* out) {
 }
 
 Status Session::apply_edits(const v1::EditBatch& batch, std::optional<int64_t> expected_tick,
-                            v1::ApplyEditsReply* reply) {
+                            const KeepGoing& keep_going, v1::ApplyEditsReply* reply) {
   if (batch.edits_size() == 0) return invalid_argument("batch.edits: must not be empty");
-  if (static_cast<size_t>(batch.edits_size()) > limits_.max_edits) {
-    return resource_exhausted("batch.edits: at most " + std::to_string(limits_.max_edits) +
-                              " edits per batch (got " + std::to_string(batch.edits_size()) + ")");
-  }
-  int created = 0;
-  for (const v1::Edit& e : batch.edits()) created += e.has_create_body() ? 1 : 0;
+  EditLimits limits;
+  limits.max_edits = limits_.max_edits;
+  limits.max_bodies = limits_.max_bodies;
+  limits.max_shapes = limits_.max_shapes;
+  limits.max_shapes_per_body = limits_.max_shapes_per_body;
+  limits.max_work = limits_.max_batch_work;
+  limits.keep_going = keep_going;
   {
     Hold hold(this);
     FULCRUM_RETURN_IF_ERROR(check_expected_tick(expected_tick, world_.tick()));
-    if (world_.body_count() + created > limits_.max_bodies) {
-      return resource_exhausted(
-          "batch: would make " + std::to_string(world_.body_count() + created) +
-          " bodies; this server allows " + std::to_string(limits_.max_bodies) + " per world");
-    }
-    Result<EditOutcome> outcome = apply_edit_batch(&world_, batch, limits_.max_edits);
+    Result<EditOutcome> outcome = apply_edit_batch(&world_, batch, limits);
     if (!outcome.ok()) return outcome.status().with_prefix("batch.");
     if (recorder_) recorder_->note_batch(batch);
     reply->set_tick(world_.tick());
@@ -137,12 +143,14 @@ Status Session::apply_edits(const v1::EditBatch& batch, std::optional<int64_t> e
 }
 
 Status Session::step(uint32_t ticks, std::optional<int64_t> expected_tick, bool include_snapshot,
-                     v1::StepReply* reply) {
+                     const KeepGoing& keep_going, v1::StepReply* reply) {
   if (ticks == 0) return invalid_argument("ticks: must be >= 1 (got 0)");
   if (ticks > limits_.max_step_ticks) {
     return resource_exhausted("ticks: at most " + std::to_string(limits_.max_step_ticks) +
-                              " per Step on this server (got " + std::to_string(ticks) + ")");
+                              " per Step on this server (got " + std::to_string(ticks) +
+                              "; max_step_ticks)");
   }
+  Status stopped;
   {
     Hold hold(this);
     if (clock_.mode == v1::RUN_MODE_REAL_TIME) {
@@ -151,9 +159,18 @@ Status Session::step(uint32_t ticks, std::optional<int64_t> expected_tick, bool 
     }
     FULCRUM_RETURN_IF_ERROR(check_expected_tick(expected_tick, world_.tick()));
     const auto start = std::chrono::steady_clock::now();
-    for (uint32_t i = 0; i < ticks; ++i) tick_locked();
+    uint32_t done = 0;
+    while (done < ticks) {
+      if (keep_going && done > 0) {
+        stopped = keep_going();
+        if (!stopped.ok()) break;
+      }
+      stopped = tick_locked();
+      if (!stopped.ok()) break;
+      ++done;
+    }
     const auto end = std::chrono::steady_clock::now();
-    counters().add_steps(ticks, end - start);
+    counters().add_steps(done, end - start);
     reply->set_tick(world_.tick());
     reply->set_state_hash(world_.state_hash());
     refresh_summary_locked(reply->state_hash());
@@ -162,6 +179,13 @@ Status Session::step(uint32_t ticks, std::optional<int64_t> expected_tick, bool 
       reply->set_awake_body_count(summary_.awake_body_count());
     }
     reply->set_step_ms(std::chrono::duration<double, std::milli>(end - start).count());
+    if (!stopped.ok()) {
+      return Status(stopped.code(), "ticks: stopped after " + std::to_string(done) + " of " +
+                                        std::to_string(ticks) + " ticks: " + stopped.message() +
+                                        ". The world keeps the ticks it ran: it is at tick " +
+                                        std::to_string(world_.tick()) + ", state hash " +
+                                        World::hash_text(reply->state_hash()));
+    }
     if (include_snapshot) {
       *reply->mutable_snapshot() = wrap_snapshot(snapshot_to_proto(world_.snapshot()));
     }
@@ -186,7 +210,25 @@ Result<WorldSnapshot> decode_snapshot(const v1::SnapshotFile& file, const Limits
   if (alive > limits.max_bodies) {
     return resource_exhausted("snapshot: " + std::to_string(alive) +
                               " bodies; this server allows " + std::to_string(limits.max_bodies) +
-                              " per world");
+                              " per world (max_bodies)");
+  }
+  WorkLimits shape_limits;
+  shape_limits.max_shapes = limits.max_shapes;
+  shape_limits.max_shapes_per_body = limits.max_shapes_per_body;
+  int64_t shapes = 0;
+  for (size_t i = 0; i < records->bodies.size(); ++i) {
+    const Body& b = records->bodies[i];
+    if (!b.alive) continue;
+    FULCRUM_RETURN_IF_ERROR(check_new_shapes(shape_limits, shapes, b.type, 0, b.shapes.size(),
+                                             "snapshot: bodies[" + std::to_string(i) + "]"));
+    shapes += static_cast<int64_t>(b.shapes.size());
+  }
+  int64_t contacts = 0;
+  for (const Contact& c : records->contacts) contacts += c.alive ? 1 : 0;
+  if (limits.max_contacts > 0 && contacts > limits.max_contacts) {
+    return resource_exhausted("snapshot: " + std::to_string(contacts) +
+                              " contacts; this server allows " +
+                              std::to_string(limits.max_contacts) + " per world (max_contacts)");
   }
   return records;
 }
@@ -388,12 +430,12 @@ Result<std::shared_ptr<Session>> Registry::create(std::string name, World world)
   if (world.body_count() > limits_.max_bodies) {
     return resource_exhausted("scene: " + std::to_string(world.body_count()) +
                               " bodies; this server allows " + std::to_string(limits_.max_bodies) +
-                              " per world");
+                              " per world (max_bodies)");
   }
   std::lock_guard<std::mutex> lock(mu_);
   if (static_cast<int>(worlds_.size()) >= limits_.max_worlds) {
     return resource_exhausted("this server holds at most " + std::to_string(limits_.max_worlds) +
-                              " worlds; delete one first");
+                              " worlds (max_worlds); delete one first");
   }
   const uint64_t id = next_id_++;
   const int bodies = world.body_count();

@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -25,8 +26,15 @@
 namespace fulcrum::server {
 
 struct Limits {
-  int max_worlds = 64;                // worlds alive at once
-  int max_bodies = 100000;            // live bodies per world
+  int max_worlds = 64;             // worlds alive at once
+  int max_bodies = 100000;         // live bodies per world
+  int max_shapes = 400000;         // live shapes per world, chain segments included
+  int max_shapes_per_body = 1024;  // shapes on one dynamic or kinematic body
+  // World::edit_work one edit batch (or one scene, when a world is created) may do: about one
+  // unit per shape created and per broad-phase box its wake query visits. Overlapping shapes
+  // make it grow with the square of their number.
+  uint64_t max_batch_work = 10000000;
+  int64_t max_contacts = 1000000;     // live contacts per world (World::set_contact_limit)
   uint32_t max_step_ticks = 1000000;  // ticks per Step call
   size_t max_edits = 100000;          // edits per batch
   // A stream reader whose frame has been in flight (not taken by its connection) for longer
@@ -58,10 +66,15 @@ class Session : public std::enable_shared_from_this<Session> {
   // (ListWorlds); no settings.
   void summary(v1::WorldInfo* out);
 
+  // Long calls ask `keep_going` between edits and between ticks; a non-OK status stops them
+  // (a cancelled call, a passed deadline, a server shutting down). An edit batch stopped that
+  // way leaves the world as it was. A Step keeps the ticks it completed, and its reply holds
+  // the tick and hash reached even when the status is not OK.
+  using KeepGoing = std::function<Status()>;
   Status apply_edits(const v1::EditBatch& batch, std::optional<int64_t> expected_tick,
-                     v1::ApplyEditsReply* reply);
+                     const KeepGoing& keep_going, v1::ApplyEditsReply* reply);
   Status step(uint32_t ticks, std::optional<int64_t> expected_tick, bool include_snapshot,
-              v1::StepReply* reply);
+              const KeepGoing& keep_going, v1::StepReply* reply);
   void snapshot(v1::GetSnapshotReply* reply);
   // Rollback: replaces the world with the snapshot (checked whole; unchanged on error).
   Status restore(const WorldSnapshot& records, v1::RestoreSnapshotReply* reply);
@@ -131,8 +144,9 @@ class Session : public std::enable_shared_from_this<Session> {
 
   // Copies tick, hash and counts into summary_; called with mu_ held at the end of every change.
   void refresh_summary_locked(uint64_t state_hash);
-  // One tick with mu_ held: step, record, publish.
-  void tick_locked();
+  // One tick with mu_ held: step, record, publish. A tick the contact limit refuses does not
+  // run (RESOURCE_EXHAUSTED, the world unchanged).
+  Status tick_locked();
   // The run mode, clock counters and recording state (WorldInfo.run, .recording).
   void runtime_to_proto_locked(v1::WorldInfo* out) const;
   // Closes the recording after a failed write, keeping the error for WorldInfo.

@@ -3,6 +3,10 @@
 // build_world turns it into a World.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <string>
 #include <variant>
 #include <vector>
 
@@ -35,9 +39,30 @@ struct SceneDef {
   std::vector<SceneJoint> joints;  // created after every body, in order
 };
 
+// Bounds on what building a scene or applying edits may do, for servers that take them from
+// clients they do not control. Zero means no limit. A refusal is RESOURCE_EXHAUSTED and names
+// the limit as the server's flag spells it (max_shapes_per_body).
+struct WorkLimits {
+  int max_bodies = 0;           // live bodies
+  int max_shapes = 0;           // live shapes, chain segments included
+  int max_shapes_per_body = 0;  // on one dynamic or kinematic body (static shapes never move)
+  uint64_t max_work = 0;        // World::edit_work one scene or one edit batch may add
+  // Asked between bodies and between edits; a non-OK status (a cancelled call, a passed
+  // deadline, a server shutting down) stops the work, which then builds or changes nothing.
+  std::function<Status()> keep_going;
+};
+
+// The shape limits for adding `adding` shapes to a body of `type` that has `on_body` already,
+// in a world of `in_world` shapes. `field` starts the message.
+Status check_new_shapes(const WorkLimits& limits, int64_t in_world, BodyType type, int on_body,
+                        size_t adding, const std::string& field);
+// The segments a chain makes.
+size_t chain_segment_count(const ChainDef& chain);
+
 // Validates the whole scene first (messages name the place: "bodies[3].shapes[0].density"),
-// then builds it. Bodies are created in order, so bodies[i] gets index i.
-Result<World> build_world(const SceneDef& scene);
+// then builds it. Bodies are created in order, so bodies[i] gets index i. Counts are checked
+// against `limits` before anything is built, the work after each body.
+Result<World> build_world(const SceneDef& scene, const WorkLimits& limits = {});
 
 // Creates the joint's definition between two bodies of a world (its body_a and body_b indices
 // are not used).

@@ -18,6 +18,11 @@ enum class StatusCode {
   kResourceExhausted,   // a configured limit would be exceeded
   kDataLoss,            // corrupt or truncated input data
   kInternal,
+  // Why a long call stopped early (servers): its caller cancelled it, its deadline passed, or
+  // the server is shutting down.
+  kCancelled,
+  kDeadlineExceeded,
+  kUnavailable,
 };
 
 const char* status_code_name(StatusCode code);

@@ -120,6 +120,13 @@ class World {
   // Live bodies in index order.
   std::vector<BodyId> bodies() const;
   int body_count() const;
+  int shape_count() const;                        // live shapes, chain segments included
+  Result<int> body_shape_count(BodyId id) const;  // O(1)
+  // Work the edits have done since the world was built or restored, in units of roughly equal
+  // cost: one per shape or joint created, per broad-phase box a new shape's wake query visited
+  // and per sleeping body woken. Overlapping shapes make it grow with the square of their
+  // number; servers bound it per batch. Not part of the state.
+  uint64_t edit_work() const;
 
   // Edits wake the body (and its island).
   Status set_transform(BodyId id, const Vec2& position, double angle);
@@ -160,6 +167,15 @@ class World {
   // --- Simulation ----------------------------------------------------------------------------
   // Advances exactly one tick of settings().dt.
   void step();
+  // step(), unless the tick would make more contacts than the contact limit allows: then
+  // nothing changes (the tick does not run) and the status is RESOURCE_EXHAUSTED with the
+  // counts. step() ignores that status, so with a limit set, call this one.
+  Status try_step();
+  // At most `limit` live contacts (0: no limit, the default). A guard for servers: overlapping
+  // shapes make contacts grow with the square of their number, at about 0.5 KB each. Like the
+  // thread count it is not state: snapshots do not carry it and restoring one keeps it.
+  Status set_contact_limit(int64_t limit);
+  int64_t contact_limit() const { return contact_limit_; }
   // Threads the step may use, the caller's included: 1 (the default) to kMaxThreads. Any
   // count gives the same bits, so this is not part of the world's state: snapshots do not
   // carry it and restoring one keeps it. The step shares out the contact solver's colours when
@@ -173,6 +189,8 @@ class World {
 
   // 64-bit hash of every bit of state that evolves, over bit patterns in id order.
   uint64_t state_hash() const;
+  // A state hash as Fulcrum prints it everywhere: 16 lowercase hex digits.
+  static std::string hash_text(uint64_t hash);
   WorldMetrics metrics() const;
 
   // --- Snapshots (fulcrum/state.h) -----------------------------------------------------------
@@ -202,6 +220,7 @@ class World {
  private:
   std::unique_ptr<WorldImpl> impl_;
   std::unique_ptr<WorkerPool> pool_;  // null with one thread
+  int64_t contact_limit_ = 0;
 };
 
 }  // namespace fulcrum
