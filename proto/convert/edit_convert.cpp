@@ -6,6 +6,8 @@
 #include <google/protobuf/util/json_util.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -34,6 +36,27 @@ Status exhausted(std::string message) {
   return Status(StatusCode::kResourceExhausted, std::move(message));
 }
 
+std::string text(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+std::string text(const v1::Vec2& v) {
+  return "(" + text(v.x()) + ", " + text(v.y()) + ")";
+}
+
+// The engine's message with its leading `from` (a definition's name) replaced by `to`, the
+// proto's spelling of that place; an empty `to` drops it, and the message's separator with it
+// when nothing of the path remains.
+Status renamed(const Status& s, const std::string& from, const std::string& to) {
+  if (s.ok() || s.message().rfind(from, 0) != 0) return s;
+  std::string rest = s.message().substr(from.size());
+  if (to.empty() && !rest.empty() && (rest[0] == '.' || rest[0] == ':')) {
+    rest = rest[0] == '.' ? rest.substr(1) : rest.substr(rest.find_first_not_of(": "));
+  }
+  return Status(s.code(), to + rest);
+}
+
 Status apply_one(World* w, const v1::Edit& e, const std::string& path, const EditLimits& limits,
                  EditOutcome* out) {
   switch (e.kind_case()) {
@@ -49,17 +72,19 @@ Status apply_one(World* w, const v1::Edit& e, const std::string& path, const Edi
       for (const ChainDef& c : sb.chains) adding += chain_segment_count(c);
       FULCRUM_RETURN_IF_ERROR(
           check_new_shapes(limits, w->shape_count(), sb.def.type, 0, adding, path + ".shapes"));
+      // The engine names its definitions ("body.", "shape.", "chain."); the proto's Body holds
+      // the body's fields itself and its shapes and chains in lists.
       Result<BodyId> id = w->create_body(sb.def);
-      if (!id.ok()) return id.status();
+      if (!id.ok()) return renamed(id.status(), "body.", "");
       out->bodies.push_back(*id);
-      for (const ShapeDef& s : sb.shapes) {
-        Result<ShapeId> sid = w->create_shape(*id, s);
-        if (!sid.ok()) return sid.status();
+      for (size_t j = 0; j < sb.shapes.size(); ++j) {
+        Result<ShapeId> sid = w->create_shape(*id, sb.shapes[j]);
+        if (!sid.ok()) return renamed(sid.status(), "shape", "shapes[" + std::to_string(j) + "]");
         out->shapes.push_back(*sid);
       }
-      for (const ChainDef& c : sb.chains) {
-        auto ids = w->create_chain(*id, c);
-        if (!ids.ok()) return ids.status();
+      for (size_t j = 0; j < sb.chains.size(); ++j) {
+        auto ids = w->create_chain(*id, sb.chains[j]);
+        if (!ids.ok()) return renamed(ids.status(), "chain", "chains[" + std::to_string(j) + "]");
         out->shapes.insert(out->shapes.end(), ids->begin(), ids->end());
       }
       return {};
@@ -68,7 +93,8 @@ Status apply_one(World* w, const v1::Edit& e, const std::string& path, const Edi
       return w->destroy_body(body(e.destroy_body()));
     case v1::Edit::kCreateShape: {
       ShapeDef def;
-      FULCRUM_RETURN_IF_ERROR(scene_shape_from_proto(e.create_shape().shape(), path, &def));
+      FULCRUM_RETURN_IF_ERROR(
+          scene_shape_from_proto(e.create_shape().shape(), path + ".shape", &def));
       if (limits.max_shapes > 0 || limits.max_shapes_per_body > 0) {
         Result<BodyState> on = w->body_state(body(e.create_shape().body()));
         Result<int> count = w->body_shape_count(body(e.create_shape().body()));
@@ -105,8 +131,11 @@ Status apply_one(World* w, const v1::Edit& e, const std::string& path, const Edi
     case v1::Edit::kSetVelocity: {
       const v1::SetVelocity& v = e.set_velocity();
       // Both checked before either is set, so one edit never half-applies.
-      if (!is_finite(get(v.linear())) || !std::isfinite(v.angular())) {
-        return invalid_argument("linear, angular: must be finite");
+      if (!is_finite(get(v.linear()))) {
+        return invalid_argument("linear: must be finite (got " + text(v.linear()) + ")");
+      }
+      if (!std::isfinite(v.angular())) {
+        return invalid_argument("angular: must be finite (got " + text(v.angular()) + ")");
       }
       FULCRUM_RETURN_IF_ERROR(w->set_linear_velocity(body(v.body()), get(v.linear())));
       return w->set_angular_velocity(body(v.body()), v.angular());
@@ -140,38 +169,46 @@ Status apply_one(World* w, const v1::Edit& e, const std::string& path, const Edi
       return w->set_shape_filter(shape(e.set_filter().shape()),
                                  scene_filter_from_proto(e.set_filter().filter()));
     case v1::Edit::kSetMotor:
+      if (!std::isfinite(e.set_motor().speed())) {
+        return invalid_argument("speed: must be finite (got " + text(e.set_motor().speed()) + ")");
+      }
       return w->set_motor_speed(joint(e.set_motor().joint()), e.set_motor().speed());
     case v1::Edit::kSetJointTarget:
       return w->set_joint_target(joint(e.set_joint_target().joint()),
                                  get(e.set_joint_target().target()));
     case v1::Edit::kSetGravity: {
+      // The edit is the gravity vector itself.
+      if (!is_finite(get(e.set_gravity()))) {
+        return invalid_argument("must be finite (got " + text(e.set_gravity()) + ")");
+      }
       WorldSettings s = w->settings();
       s.gravity = get(e.set_gravity());
-      return w->set_settings(s);
+      return renamed(w->set_settings(s), "settings.gravity", "");
     }
     case v1::Edit::kSetSettings: {
+      // The edit is a WorldSettings message: the engine's "settings.dt" is its field "dt".
       WorldSettings s = w->settings();
       FULCRUM_RETURN_IF_ERROR(world_settings_from_proto(e.set_settings(), path, &s));
-      return w->set_settings(s);
+      return renamed(w->set_settings(s), "settings.", "");
     }
     case v1::Edit::kSetAwake:
       return w->set_awake(body(e.set_awake().body()), e.set_awake().awake());
     case v1::Edit::KIND_NOT_SET:
       break;
   }
-  return invalid_argument("no edit given (set exactly one kind)");
+  return invalid_argument("no edit given (set exactly one of its kinds)");
 }
 
-// "edits[3].set_velocity" + ": ..." or ".linear: ..." from the World's own message.
+// "edits[3].set_velocity" + ".linear: ..." when the message starts with a field path, or
+// + ": ..." when it is a sentence ("body {3, 1} is stale", "no edit given").
 Status located(const Status& s, const std::string& path) {
   const std::string& m = s.message();
   if (m.rfind(path, 0) == 0) return s;  // already names the path
-  return Status(s.code(), path +
-                              (m.rfind("body {", 0) == 0 || m.rfind("shape {", 0) == 0 ||
-                                       m.rfind("joint {", 0) == 0
-                                   ? ": "
-                                   : ".") +
-                              m);
+  const size_t head_end = m.find_first_of(".:[ ");
+  const bool field_first = head_end != std::string::npos && head_end > 0 && m[head_end] != ' ' &&
+                           (m[0] >= 'a' && m[0] <= 'z') &&
+                           m.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789_") == head_end;
+  return Status(s.code(), path + (field_first ? "." : ": ") + m);
 }
 
 }  // namespace

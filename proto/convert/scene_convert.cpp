@@ -1086,9 +1086,14 @@ Status joint_from_proto(const v1::Joint& p, const std::string& path, int body_co
       },
       out->def);
   if (!s.ok()) {
+    // The engine names a definition's field ("joint.max_length"); the proto keeps the anchors
+    // in Joint and the rest in the kind's message ("joints[0].distance.max_length").
     std::string msg = s.message();
     if (msg.rfind("joint.", 0) == 0) msg = msg.substr(6);
-    return invalid_argument(path + "." + msg);
+    const std::string head = msg.substr(0, msg.find_first_of(".:[ "));
+    const bool in_joint = v1::Joint::descriptor()->FindFieldByName(head) != nullptr;
+    const std::string kind = p.GetDescriptor()->FindFieldByNumber(p.kind_case())->name();
+    return invalid_argument(path + "." + (in_joint ? "" : kind + ".") + msg);
   }
   return Status::ok_status();
 }

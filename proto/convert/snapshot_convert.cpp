@@ -442,24 +442,28 @@ v1::SnapshotFile wrap_snapshot(const v1::Snapshot& snapshot) {
   return file;
 }
 
+// Messages name the SnapshotFile field at fault ("snapshot.version"); those about the payload's
+// content (snapshot_from_proto) start "snapshot: " and name the place inside it.
 Result<v1::Snapshot> unwrap_snapshot(const v1::SnapshotFile& file) {
-  if (file.format().empty()) return data_loss("snapshot: empty, or not a snapshot file");
+  if (file.format().empty()) return data_loss("snapshot.format: empty: not a snapshot");
   if (file.format() != kSnapshotFormat) {
-    return Status(StatusCode::kFailedPrecondition, "snapshot: format is \"" + file.format() +
+    return Status(StatusCode::kFailedPrecondition, "snapshot.format: \"" + file.format() +
                                                        "\", expected \"" + kSnapshotFormat + "\"");
   }
   if (file.version() != kSnapshotVersion) {
     return Status(StatusCode::kFailedPrecondition,
-                  "snapshot: format version " + std::to_string(file.version()) + " (written by \"" +
+                  "snapshot.version: " + std::to_string(file.version()) + " (written by \"" +
                       file.writer() + "\"); this build reads version " +
                       std::to_string(kSnapshotVersion));
   }
   if (fnv1a64(file.payload()) != file.checksum()) {
-    return data_loss("snapshot: payload checksum mismatch: the data is damaged");
+    return data_loss(
+        "snapshot.checksum: does not match the payload (checksum mismatch: the data "
+        "is damaged)");
   }
   v1::Snapshot snapshot;
   if (!snapshot.ParseFromString(file.payload())) {
-    return data_loss("snapshot: payload does not parse");
+    return data_loss("snapshot.payload: does not parse");
   }
   return snapshot;
 }

@@ -449,7 +449,7 @@ grpc::Status PhysicsService::RestoreSnapshot(grpc::ServerContext* context,
   // Fork: a new world continuing from the snapshot.
   World world;
   Status restored = world.restore(*records);
-  if (!restored.ok()) return to_grpc_status(restored.with_prefix("snapshot: "));
+  if (!restored.ok()) return to_grpc_status(restored);  // "snapshot: ..." already
   auto created =
       registry_->create(request->name().empty() ? "fork" : request->name(), std::move(world));
   if (!created.ok()) return to_grpc_status(created.status());

@@ -201,10 +201,11 @@ void Session::snapshot(v1::GetSnapshotReply* reply) {
 }
 
 Result<WorldSnapshot> decode_snapshot(const v1::SnapshotFile& file, const Limits& limits) {
+  // Their messages already start with "snapshot" and name the place.
   Result<v1::Snapshot> unwrapped = unwrap_snapshot(file);
-  if (!unwrapped.ok()) return unwrapped.status().with_prefix("snapshot: ");
+  if (!unwrapped.ok()) return unwrapped.status();
   Result<WorldSnapshot> records = snapshot_from_proto(*unwrapped);
-  if (!records.ok()) return records.status().with_prefix("snapshot: ");
+  if (!records.ok()) return records.status();
   int alive = 0;
   for (const Body& b : records->bodies) alive += b.alive ? 1 : 0;
   if (alive > limits.max_bodies) {
@@ -241,7 +242,7 @@ Status Session::restore(const WorldSnapshot& records, v1::RestoreSnapshotReply* 
                                  recorder_->name() +
                                  ": a replay cannot hold a rollback; stop recording first");
     }
-    FULCRUM_RETURN_IF_ERROR(world_.restore(records).with_prefix("snapshot: "));
+    FULCRUM_RETURN_IF_ERROR(world_.restore(records));  // its messages start "snapshot: "
     ++epoch_;
     ++counters().worlds_restored;
     log_event("world_restored", {{"world", id_}, {"tick", world_.tick()}});

@@ -795,7 +795,7 @@ TEST(SceneJoints, BadJointsNameTheField) {
       "revolute": {"lowerAngle": 1, "upperAngle": -1}}]})";
   Result<SceneDef> b = parse_scene_json(limits);
   ASSERT_FALSE(b.ok());
-  EXPECT_NE(b.status().message().find("joints[0].lower_angle"), std::string::npos)
+  EXPECT_NE(b.status().message().find("joints[0].revolute.lower_angle"), std::string::npos)
       << b.status().message();
   const char* kindless = R"({"bodies": [{}, {}], "joints": [{"bodyA": 0, "bodyB": 1}]})";
   Result<SceneDef> c = parse_scene_json(kindless);
@@ -989,11 +989,11 @@ TEST(SceneJoints, BadNewJointsNameTheField) {
                 .find("joints[0].weld.linear_hertz"),
             std::string::npos);
   EXPECT_NE(error(R"({"bodyA": 0, "bodyB": 1, "prismatic": {"localAxisA": {"x": 0, "y": 0}}})")
-                .find("joints[0].local_axis_a"),
+                .find("joints[0].prismatic.local_axis_a"),
             std::string::npos);
   EXPECT_NE(error(R"({"bodyA": 0, "bodyB": 1, "prismatic": {"lowerTranslation": 1,
                 "upperTranslation": 0}})")
-                .find("joints[0].lower_translation"),
+                .find("joints[0].prismatic.lower_translation"),
             std::string::npos);
   EXPECT_NE(error(R"({"bodyA": 0, "bodyB": 1, "wheel": {"maxMotorTorque": -2}})")
                 .find("joints[0].wheel.max_motor_torque"),

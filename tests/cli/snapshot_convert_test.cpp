@@ -92,7 +92,7 @@ TEST(SnapshotFile, DamagedFilesAreRefused) {
   file.set_version(kSnapshotVersion + 1);
   Status st = restore_encoded(&target, file.SerializeAsString());
   EXPECT_EQ(st.code(), StatusCode::kFailedPrecondition);
-  EXPECT_NE(st.message().find("version 2"), std::string::npos) << st.message();
+  EXPECT_NE(st.message().find("snapshot.version: 2"), std::string::npos) << st.message();
   file.set_version(kSnapshotVersion);
   file.set_format("fulcrum.replay");
   st = restore_encoded(&target, file.SerializeAsString());
