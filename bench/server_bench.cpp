@@ -1,8 +1,9 @@
 // What the wire costs: the server in-process on loopback, measured from a client in the same
 // process. Step round trips against local steps, snapshot size and time, and frame streams
 // (bytes per frame for all bodies against changed bodies only, frames delivered and coalesced
-// for 10 readers). Prints Markdown tables.
-//   fulcrum_server_bench [--calls N]
+// for 10 readers). Prints Markdown tables. With --limits, only the largest requests the default
+// limits let through (and the first ones past them), with the time the server took to answer.
+//   fulcrum_server_bench [--calls N] [--limits]
 #include <grpcpp/grpcpp.h>
 
 #include <algorithm>
@@ -115,12 +116,114 @@ StreamFigures stream(Physics::Stub* stub, uint64_t world, fulcrum::v1::FrameBodi
   return f;
 }
 
+// One circle of radius 0.5 per body, `bodies` of them: piled on one spot, or in a grid 1 m apart
+// (`spread`). `shapes_on_first` puts that many circles, side by side, on one body instead.
+fulcrum::v1::EditBatch bodies_batch(int bodies, bool spread, int shapes_on_first = 1) {
+  fulcrum::v1::EditBatch batch;
+  for (int i = 0; i < bodies; ++i) {
+    fulcrum::v1::Body* b = batch.add_edits()->mutable_create_body();
+    b->set_type(fulcrum::v1::BODY_TYPE_DYNAMIC);
+    if (spread) {
+      b->mutable_position()->set_x(i % 300);
+      b->mutable_position()->set_y(i / 300);
+    }
+    const int shapes = i == 0 ? shapes_on_first : 1;
+    for (int k = 0; k < shapes; ++k) {
+      fulcrum::v1::Circle* c = b->add_shapes()->mutable_circle();
+      c->set_radius(shapes > 1 ? 0.1 : 0.5);
+      c->mutable_center()->set_x(0.25 * (k % 1000));
+      c->mutable_center()->set_y(0.25 * (k / 1000));
+    }
+  }
+  return batch;
+}
+
+uint64_t empty_world(Physics::Stub* stub) {
+  fulcrum::v1::CreateWorldRequest request;
+  request.mutable_scene()->set_name("limits");
+  fulcrum::v1::CreateWorldReply reply;
+  grpc::ClientContext context;
+  (void)stub->CreateWorld(&context, request, &reply);
+  return reply.world_id();
+}
+
+void limit_row(const char* what, size_t bytes, const grpc::Status& st, double ms) {
+  std::printf("| %s | %.2f | %s | %.1f |\n", what, bytes / 1e6,
+              st.ok() ? "OK"
+                      : (st.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED
+                             ? "RESOURCE_EXHAUSTED"
+                             : st.error_message().c_str()),
+              ms);
+}
+
+void apply_row(Physics::Stub* stub, const char* what, const fulcrum::v1::EditBatch& batch) {
+  const uint64_t world = empty_world(stub);
+  fulcrum::v1::ApplyEditsRequest request;
+  request.set_world_id(world);
+  *request.mutable_batch() = batch;
+  fulcrum::v1::ApplyEditsReply reply;
+  grpc::ClientContext context;
+  const auto t = Clock::now();
+  grpc::Status st = stub->ApplyEdits(&context, request, &reply);
+  limit_row(what, request.ByteSizeLong(), st, ms_since(t));
+}
+
+// The largest requests the default limits allow, and the first past them.
+void limits_table(Physics::Stub* stub) {
+  std::printf("Requests at the default limits (in-process server, loopback)\n\n");
+  std::printf("| request | MB | answer | ms |\n|---|---|---|---|\n");
+  apply_row(stub, "ApplyEdits: one body of 1024 circles (max_shapes_per_body)",
+            bodies_batch(1, false, 1024));
+  apply_row(stub, "ApplyEdits: one body of 1025 circles", bodies_batch(1, false, 1025));
+  apply_row(stub, "ApplyEdits: one body of 300 000 circles", bodies_batch(1, false, 300000));
+  apply_row(stub, "ApplyEdits: 100 000 bodies 1 m apart (max_edits, max_bodies)",
+            bodies_batch(100000, true));
+  apply_row(stub, "ApplyEdits: 4400 bodies on one spot (near max_batch_work)",
+            bodies_batch(4400, false));
+  apply_row(stub, "ApplyEdits: 4600 bodies on one spot", bodies_batch(4600, false));
+  {
+    fulcrum::v1::CreateWorldRequest request;
+    const fulcrum::v1::EditBatch pile = bodies_batch(4600, false);
+    for (const auto& e : pile.edits()) {
+      *request.mutable_scene()->add_bodies() = e.create_body();
+    }
+    fulcrum::v1::CreateWorldReply reply;
+    grpc::ClientContext context;
+    const auto t = Clock::now();
+    grpc::Status st = stub->CreateWorld(&context, request, &reply);
+    limit_row("CreateWorld: 4600 bodies on one spot", request.ByteSizeLong(), st, ms_since(t));
+  }
+  for (int pile : {1000, 1001, 4400}) {
+    // 1000 bodies make 499 500 contacts (max_contacts is 500 000); 1001 make 500 500.
+    const uint64_t world = empty_world(stub);
+    fulcrum::v1::ApplyEditsRequest request;
+    request.set_world_id(world);
+    *request.mutable_batch() = bodies_batch(pile, false);
+    fulcrum::v1::ApplyEditsReply reply;
+    grpc::ClientContext context;
+    (void)stub->ApplyEdits(&context, request, &reply);
+    fulcrum::v1::StepRequest step;
+    step.set_world_id(world);
+    step.set_ticks(1);
+    fulcrum::v1::StepReply stepped;
+    grpc::ClientContext step_context;
+    const auto t = Clock::now();
+    grpc::Status st = stub->Step(&step_context, step, &stepped);
+    const std::string what = "Step(1) of " + std::to_string(pile) + " bodies on one spot";
+    limit_row(what.c_str(), step.ByteSizeLong(), st, ms_since(t));
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   int calls = 500;
-  for (int i = 1; i + 1 < argc; ++i) {
-    if (std::strcmp(argv[i], "--calls") == 0) calls = std::max(1, std::atoi(argv[i + 1]));
+  bool limits = false;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--calls") == 0 && i + 1 < argc) {
+      calls = std::max(1, std::atoi(argv[i + 1]));
+    }
+    if (std::strcmp(argv[i], "--limits") == 0) limits = true;
   }
   fulcrum::server::ServerOptions options;
   options.listen = "127.0.0.1:0";
@@ -134,6 +237,11 @@ int main(int argc, char** argv) {
   auto channel =
       grpc::CreateCustomChannel((*server)->address(), grpc::InsecureChannelCredentials(), args);
   auto stub = Physics::NewStub(channel);
+  if (limits) {
+    limits_table(stub.get());
+    (*server)->shutdown(std::chrono::milliseconds(1000));
+    return 0;
+  }
 
   std::printf("Step round trips (%d calls of 1 tick each, loopback, in-process server)\n\n", calls);
   std::printf("| scene | bodies | local ms/step | Step(1) ms/call | wire overhead ms |\n");

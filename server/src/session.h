@@ -34,7 +34,7 @@ struct Limits {
   // unit per shape created and per broad-phase box its wake query visits. Overlapping shapes
   // make it grow with the square of their number.
   uint64_t max_batch_work = 10000000;
-  int64_t max_contacts = 1000000;     // live contacts per world (World::set_contact_limit)
+  int64_t max_contacts = 500000;      // live contacts per world (World::set_contact_limit)
   uint32_t max_step_ticks = 1000000;  // ticks per Step call
   size_t max_edits = 100000;          // edits per batch
   // A stream reader whose frame has been in flight (not taken by its connection) for longer

@@ -172,7 +172,7 @@ class World {
   // counts. step() ignores that status, so with a limit set, call this one.
   Status try_step();
   // At most `limit` live contacts (0: no limit, the default). A guard for servers: overlapping
-  // shapes make contacts grow with the square of their number, at about 0.5 KB each. Like the
+  // shapes make contacts grow with the square of their number, at about 1 KB each. Like the
   // thread count it is not state: snapshots do not carry it and restoring one keeps it.
   Status set_contact_limit(int64_t limit);
   int64_t contact_limit() const { return contact_limit_; }
