@@ -125,6 +125,27 @@ void load_bodies(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s) 
   }
 }
 
+// The speed caps: the linear speed at max_linear_speed and the turn at half a turn per substep
+// (beyond it a rotation cannot be told from the opposite one). Solved velocities stay far below
+// both in any scene that holds together; the caps keep one that flies apart (joints fighting at
+// huge mass ratios) finite instead of overflowing to infinity and NaN. Applied before each
+// substep moves the bodies.
+void cap_speeds(SolverBody& sb, double max_speed, double max_turn_rate) {
+  const double speed2 = sb.vx * sb.vx + sb.vy * sb.vy;
+  if (speed2 > max_speed * max_speed) {
+    const double f = max_speed / std::sqrt(speed2);
+    sb.vx *= f;
+    sb.vy *= f;
+  }
+  if (sb.w * sb.w > max_turn_rate * max_turn_rate) {
+    sb.w = sb.w > 0.0 ? max_turn_rate : -max_turn_rate;
+  }
+}
+
+double max_turn_rate(double h) {
+  return 3.14159265358979323846 / h;
+}
+
 // Step 1: applied forces into velocities, v2 = v1 + h M^-1 F, then damping as the decay
 // factor 1 / (1 + h c), which stays stable for any damping. Speeds are clamped.
 void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s, double h,
@@ -511,9 +532,11 @@ void solve_pseudo(SolverScratch& s, const BiasRule& rule) {
 }
 
 // Symplectic Euler for one substep: x += h (v + v_pseudo); rotation by the exact angle.
-void integrate_positions(SolverScratch& s, double h, size_t first, size_t end) {
+void integrate_positions(SolverScratch& s, double h, double max_speed, size_t first, size_t end) {
+  const double max_turn = max_turn_rate(h);
   for (size_t k = first; k < end; ++k) {
     SolverBody& sb = s.bodies[k];
+    cap_speeds(sb, max_speed, max_turn);
     sb.dpx += h * (sb.vx + sb.pvx);
     sb.dpy += h * (sb.vy + sb.pvy);
     double turn = h * (sb.w + sb.pw);
@@ -562,11 +585,17 @@ void store_impulses(WorldImpl& w, const SolverScratch& s, size_t first, size_t e
 }
 
 // Moves the bodies by what the substeps accumulated.
-void finalize_bodies(WorldImpl& w, const std::vector<int>& awake, const SolverScratch& s,
+// The velocities a tick ends with are capped too (the relax passes and restitution come after
+// the last substep's cap), at a full turn per substep: a fast spin after a hard hit keeps its
+// speed, and a tick that flew apart cannot feed the next one ever larger velocities.
+void finalize_bodies(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s, double h,
                      size_t first, size_t end) {
+  const double max_speed = w.settings.max_linear_speed;
+  const double max_turn = 2.0 * max_turn_rate(h);
   for (size_t k = first; k < end; ++k) {
     Body& b = w.bodies[awake[k]];
-    const SolverBody& sb = s.bodies[k + 1];
+    SolverBody& sb = s.bodies[k + 1];
+    cap_speeds(sb, max_speed, max_turn);
     b.v = Vec2(sb.vx, sb.vy);
     b.w = sb.w;
     b.center += Vec2(sb.dpx, sb.dpy);
@@ -645,8 +674,9 @@ void WorldImpl::solve(const std::vector<int>& awake) {
       for (int it = 0; it < set.position_iterations; ++it) solve_pseudo(s, rule);
     }
     // Solver slots 1..n hold the awake bodies (0 is the shared static body).
-    for_chunks(workers, awake.size(), 256,
-               [&](size_t lo, size_t hi) { integrate_positions(s, h, lo + 1, hi + 1); });
+    for_chunks(workers, awake.size(), 256, [&](size_t lo, size_t hi) {
+      integrate_positions(s, h, set.max_linear_speed, lo + 1, hi + 1);
+    });
     if (coloured) update_separations(coloured_contacts, s.bodies.data(), workers);
     for (int it = 0; it < set.relax_iterations; ++it) {
       solve_joints(false);
@@ -659,7 +689,7 @@ void WorldImpl::solve(const std::vector<int>& awake) {
   for_chunks(workers, s.rows.size(), 256,
              [&](size_t lo, size_t hi) { store_impulses(*this, s, lo, hi); });
   for_chunks(workers, awake.size(), 256,
-             [&](size_t lo, size_t hi) { finalize_bodies(*this, awake, s, lo, hi); });
+             [&](size_t lo, size_t hi) { finalize_bodies(*this, awake, s, h, lo, hi); });
   if (workers != nullptr) workers->end_busy();
 }
 

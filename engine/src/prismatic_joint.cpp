@@ -106,7 +106,12 @@ void solve_prismatic_joint(Joint& j, const JointRow& r, const JointStep& st, Sol
   double k12 = a.inv_inertia * fr.s1 + b.inv_inertia * fr.s2;
   double k22 = a.inv_inertia + b.inv_inertia;
   if (k22 == 0.0) k22 = 1.0;  // neither body turns: the angle row is inert
-  double det = k11 * k22 - k12 * k12;
+  // k11 k22 - k12^2 written without the cancellation: (ma + mb) k22 + ia ib (s1 - s2)^2. The
+  // two products it subtracts grow with the squared lever arms, so once the bodies drift apart
+  // (or one turns easily) their difference lost every digit, came out zero or negative, and
+  // the impulse overflowed.
+  const double ds = fr.s1 - fr.s2;
+  double det = (a.inv_mass + b.inv_mass) * k22 + a.inv_inertia * b.inv_inertia * ds * ds;
   if (det == 0.0) return;
   double inv_det = 1.0 / det;
   double r1 = cd1 + bias1, r2 = cd2 + bias2;
