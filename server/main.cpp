@@ -71,6 +71,13 @@ ABSL_FLAG(std::string, tls_key, "", "FILE: the PEM private key of --tls-cert");
 ABSL_FLAG(int64_t, max_reader_stall_ms, 10000,
           "end a StreamFrames reader with RESOURCE_EXHAUSTED when its frame has been in flight "
           "this many ms, 1 to 86400000");
+ABSL_FLAG(int64_t, keepalive_ms, 20000,
+          "ping each client connection this often, 1 to 3600000 ms; with --keepalive-timeout-ms "
+          "it bounds how long the streams of a client that vanished stay open");
+ABSL_FLAG(int64_t, keepalive_timeout_ms, 10000,
+          "drop a connection whose ping is not answered within this many ms, 1 to 3600000");
+ABSL_FLAG(int64_t, max_streams_per_connection, 100,
+          "concurrent calls on one client connection, 1 to 100000");
 ABSL_FLAG(std::string, log, "on",
           "on|off: one key=value line per world event and refused request on stderr");
 
@@ -101,6 +108,9 @@ std::vector<const absl::CommandLineFlag*> fulcrum_flags() {
           &absl::GetFlagReflectionHandle(FLAGS_tls_cert),
           &absl::GetFlagReflectionHandle(FLAGS_tls_key),
           &absl::GetFlagReflectionHandle(FLAGS_max_reader_stall_ms),
+          &absl::GetFlagReflectionHandle(FLAGS_keepalive_ms),
+          &absl::GetFlagReflectionHandle(FLAGS_keepalive_timeout_ms),
+          &absl::GetFlagReflectionHandle(FLAGS_max_streams_per_connection),
           &absl::GetFlagReflectionHandle(FLAGS_log)};
 }
 
@@ -290,6 +300,14 @@ int options_from_flags(fulcrum::server::ServerOptions* options, int64_t* grace_m
   options->limits.world_threads = static_cast<int>(n);
   if (!in_range(FLAGS_max_reader_stall_ms, 1, 86400000, &n, &error)) return usage_error(error);
   options->limits.max_reader_stall_ms = n;
+  if (!in_range(FLAGS_keepalive_ms, 1, 3600000, &n, &error)) return usage_error(error);
+  options->keepalive_ms = static_cast<int>(n);
+  if (!in_range(FLAGS_keepalive_timeout_ms, 1, 3600000, &n, &error)) return usage_error(error);
+  options->keepalive_timeout_ms = static_cast<int>(n);
+  if (!in_range(FLAGS_max_streams_per_connection, 1, 100000, &n, &error)) {
+    return usage_error(error);
+  }
+  options->max_streams_per_connection = static_cast<int>(n);
   options->replay_dir = absl::GetFlag(FLAGS_replay_dir);
   const std::string log = absl::GetFlag(FLAGS_log);
   if (log != "on" && log != "off")
@@ -356,6 +374,9 @@ int main(int argc, char** argv) {
 
   // Signals are taken by sigwait on this thread only: block them before gRPC starts threads,
   // which inherit the mask.
+  // A replay write past a file size limit (ulimit -f) must fail with EFBIG and stop that
+  // recording, not kill the server with SIGXFSZ.
+  signal(SIGXFSZ, SIG_IGN);
   sigset_t signals;
   sigemptyset(&signals);
   sigaddset(&signals, SIGTERM);

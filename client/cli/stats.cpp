@@ -36,6 +36,8 @@ int run_stats(const Invocation& inv) {
   count("frames_coalesced", s.frames_coalesced());
   count("frames_encoded", s.frames_encoded());
   count("readers_too_slow", s.readers_too_slow());
+  count("recordings_started", s.recordings_started());
+  count("recordings_failed", s.recordings_failed());
   for (const v1::CodeCount& c : s.refused()) {
     const std::string name = "refused." + c.code();
     count(name.c_str(), c.count());

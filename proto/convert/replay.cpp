@@ -1,6 +1,9 @@
 // Replay files: records framed as [varint length][ReplayRecord bytes][FNV-1a 64, little endian].
 #include "replay.h"
 
+#include <cerrno>
+#include <cstring>
+
 #include <fstream>
 #include <sstream>
 
@@ -59,9 +62,13 @@ Result<std::unique_ptr<ReplayWriter>> ReplayWriter::open(const std::string& path
 
 Status ReplayWriter::write_record(const v1::ReplayRecord& record) {
   std::string bytes = frame(record);
+  errno = 0;
   if (std::fwrite(bytes.data(), 1, bytes.size(), file_) != bytes.size() ||
       std::fflush(file_) != 0) {
-    return Status(StatusCode::kInternal, path_ + ": write failed");
+    // "No space left on device", "File too large": what an operator needs to act on.
+    return Status(StatusCode::kInternal,
+                  path_ + ": write failed after " + std::to_string(bytes_) + " bytes (" +
+                      (errno != 0 ? std::strerror(errno) : "unknown error") + ")");
   }
   bytes_ += bytes.size();
   return {};

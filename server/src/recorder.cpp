@@ -85,6 +85,7 @@ Status Session::start_recording(ReplayStore* store, std::optional<uint32_t> keyf
   if (!recorder.ok()) return recorder.status();
   recorder_ = std::move(recorder).value();
   recording_error_.clear();
+  ++counters().recordings_started;
   log_event("recording_started",
             {{"world", id_}, {"replay", recorder_->name()}, {"tick", world_.tick()}});
   reply->set_name(recorder_->name());
@@ -101,6 +102,7 @@ void Session::end_recording_locked(const std::string& error) {
   Status closed = recorder_->stop();
   recorder_.reset();
   recording_error_ = !error.empty() ? error : closed.ok() ? std::string() : closed.message();
+  if (!recording_error_.empty()) ++counters().recordings_failed;
   log_event("recording_closed", {{"world", id_},
                                  {"replay", last_replay_.name},
                                  {"ticks", last_replay_ticks_},

@@ -4,6 +4,7 @@
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <thread>
 
@@ -30,6 +31,12 @@ Result<std::unique_ptr<Server>> Server::start(const ServerOptions& options) {
   if (options.reflection) grpc::reflection::InitProtoReflectionServerBuilderPlugin();
 
   if (options.worker_threads < 0) return invalid_argument("worker_threads: must be >= 0");
+  if (options.keepalive_ms < 1 || options.keepalive_timeout_ms < 1) {
+    return invalid_argument("keepalive_ms, keepalive_timeout_ms: must be >= 1");
+  }
+  if (options.max_streams_per_connection < 1) {
+    return invalid_argument("max_streams_per_connection: must be >= 1");
+  }
   if (!options.replay_dir.empty()) {
     std::error_code ec;
     std::filesystem::create_directories(options.replay_dir, ec);
@@ -57,6 +64,15 @@ Result<std::unique_ptr<Server>> Server::start(const ServerOptions& options) {
     credentials = grpc::SslServerCredentials(tls);
   }
   builder.AddListeningPort(options.listen, credentials, &port);
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIME_MS, options.keepalive_ms);
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, options.keepalive_timeout_ms);
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MAX_PINGS_WITHOUT_DATA, 0);
+  // Clients may ping as often as every 10 s (or the keepalive period, if shorter) without
+  // being told to go away for it.
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS,
+                             std::min(options.keepalive_ms, 10000));
+  builder.AddChannelArgument(GRPC_ARG_MAX_CONCURRENT_STREAMS, options.max_streams_per_connection);
   builder.experimental().SetInterceptorCreators(
       make_call_guards(options.token, server->calls_in_flight_));
   builder.RegisterService(server->service_.get());

@@ -29,6 +29,12 @@ struct ServerOptions {
   bool reflection = true;            // register the server reflection service
   int worker_threads = 0;            // real-time pool threads; 0: the hardware's concurrency
   std::string replay_dir;            // where StartRecording writes; empty: recording is off
+  // HTTP/2 keepalive: the server pings each connection this often and drops it when a ping is
+  // not answered within the timeout, so the streams of a client that vanished without closing
+  // (a dropped network, a frozen host) end within about the sum of the two.
+  int keepalive_ms = 20000;
+  int keepalive_timeout_ms = 10000;
+  int max_streams_per_connection = 100;  // concurrent calls on one HTTP/2 connection
   // TLS: PEM text of the certificate chain and its private key. When set, the server serves
   // TLS only; both or neither.
   std::string tls_cert_pem;

@@ -32,6 +32,8 @@ struct Counters {
   std::atomic<uint64_t> frames_coalesced{0};
   std::atomic<uint64_t> frames_encoded{0};
   std::atomic<uint64_t> readers_too_slow{0};
+  std::atomic<uint64_t> recordings_started{0};
+  std::atomic<uint64_t> recordings_failed{0};
   std::atomic<uint64_t> refused[17] = {};  // by grpc::StatusCode (0..16)
 
   // One Step call's ticks and their wall time (the max is per tick, the call's average).

@@ -2,9 +2,13 @@
 // 50 readers of one world while a client edits and steps it (one of them slow), a reader that
 // stops reading, a client killed mid-stream, a cancelled stream, SIGTERM mid-stream, and the
 // message size limit. Memory and threads are read from /proc/PID.
+#include <arpa/inet.h>
 #include <fcntl.h>
+#include <netinet/in.h>
+#include <poll.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -27,118 +31,21 @@
 
 #include "fulcrum/client.h"
 #include "fulcrum/v1/service.grpc.pb.h"
+#include "server_process.h"
 #include "test_support.h"
-
-extern char** environ;
 
 namespace fulcrum {
 namespace {
 
 using namespace std::chrono_literals;
 
+using testing_support::connect;
 using testing_support::eventually;
 using testing_support::pyramid_json;
 using testing_support::read_text;
-
-pid_t spawn(const std::vector<std::string>& argv, const std::string& out, const std::string& err) {
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_addopen(&actions, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  std::vector<char*> args;
-  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-  args.push_back(nullptr);
-  pid_t pid = -1;
-  if (posix_spawn(&pid, args[0], &actions, nullptr, args.data(), environ) != 0) pid = -1;
-  posix_spawn_file_actions_destroy(&actions);
-  return pid;
-}
-
-// Exit code of a finished child, or -1 when it was killed by a signal.
-int reap(pid_t pid) {
-  int status = 0;
-  if (waitpid(pid, &status, 0) != pid) return -1;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-class ServerProcess {
- public:
-  explicit ServerProcess(std::vector<std::string> flags) {
-    static int count = 0;
-    dir_ = ::testing::TempDir() + "fulcrum_fault_" + std::to_string(getpid()) + "_" +
-           std::to_string(count++);
-    std::filesystem::create_directories(dir_);
-    // A short grace period by default (a test's own flags come later and win): only calls in
-    // progress wait for it.
-    std::vector<std::string> argv = {FULCRUM_SERVER_BIN, "--listen", "127.0.0.1:0", "--grace-ms",
-                                     "500"};
-    argv.insert(argv.end(), flags.begin(), flags.end());
-    pid_ = spawn(argv, dir_ + "/out.txt", dir_ + "/log.txt");
-    eventually(
-        [&] {
-          const std::string out = read_text(dir_ + "/out.txt");
-          const size_t at = out.find("listening on ");
-          if (at == std::string::npos || out.find('\n', at) == std::string::npos) return false;
-          address_ = out.substr(at + 13, out.find('\n', at) - at - 13);
-          return true;
-        },
-        10s);
-  }
-  ~ServerProcess() {
-    if (pid_ > 0) {
-      kill(pid_, SIGKILL);
-      reap(pid_);
-    }
-    std::filesystem::remove_all(dir_);
-  }
-
-  const std::string& address() const { return address_; }
-  pid_t pid() const { return pid_; }
-  std::string log() const { return read_text(dir_ + "/log.txt"); }
-  const std::string& dir() const { return dir_; }
-
-  // VmRSS from /proc/PID/status, kB.
-  long rss_kb() const {
-    std::ifstream in("/proc/" + std::to_string(pid_) + "/status");
-    std::string key;
-    while (in >> key) {
-      if (key == "VmRSS:") {
-        long kb = 0;
-        in >> kb;
-        return kb;
-      }
-      in.ignore(1 << 20, '\n');
-    }
-    return -1;
-  }
-  int threads() const {
-    int n = 0;
-    for (const auto& entry :
-         std::filesystem::directory_iterator("/proc/" + std::to_string(pid_) + "/task")) {
-      (void)entry;
-      ++n;
-    }
-    return n;
-  }
-  // SIGTERM, then the exit code.
-  int terminate() {
-    kill(pid_, SIGTERM);
-    const int code = reap(pid_);
-    pid_ = -1;
-    return code;
-  }
-
- private:
-  std::string dir_;
-  std::string address_;
-  pid_t pid_ = -1;
-};
-
-std::unique_ptr<client::Client> connect(const ServerProcess& server) {
-  client::ClientOptions options;
-  options.address = server.address();
-  return client::Client::connect(options);
-}
+using testing_support::reap;
+using testing_support::ServerProcess;
+using testing_support::spawn;
 
 uint64_t streams_open(client::Client* c) {
   Result<v1::ServerStats> s = c->get_stats();
@@ -430,6 +337,108 @@ TEST(FaultTest, OversizedRequestsAreRefused) {
   EXPECT_EQ(after->tick, 0);
   EXPECT_TRUE(c->apply_edits(world->id, push(3, 1.0)).ok());  // a small one still passes
   EXPECT_EQ(server.terminate(), 0);
+}
+
+// A TCP proxy on 127.0.0.1 for one connection: it forwards both ways until frozen, then stops
+// reading and writing but keeps both sockets open, as a network that drops every packet does
+// (no FIN, no RST reaches the server).
+class FreezableProxy {
+ public:
+  explicit FreezableProxy(int target_port) : target_port_(target_port) {
+    listener_ = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    addr.sin_port = 0;
+    bind(listener_, reinterpret_cast<sockaddr*>(&addr), sizeof addr);
+    listen(listener_, 1);
+    socklen_t len = sizeof addr;
+    getsockname(listener_, reinterpret_cast<sockaddr*>(&addr), &len);
+    port_ = ntohs(addr.sin_port);
+    thread_ = std::thread([this] { run(); });
+  }
+  ~FreezableProxy() {
+    stop_ = true;
+    thread_.join();
+    for (int fd : {listener_, client_, server_}) {
+      if (fd >= 0) close(fd);
+    }
+  }
+  std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
+  void freeze() { frozen_ = true; }
+
+ private:
+  void run() {
+    pollfd accept_fd{listener_, POLLIN, 0};
+    while (!stop_ && poll(&accept_fd, 1, 50) <= 0) {
+    }
+    if (stop_) return;
+    client_ = accept(listener_, nullptr, nullptr);
+    server_ = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    addr.sin_port = htons(static_cast<uint16_t>(target_port_));
+    if (connect(server_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) return;
+    char buffer[65536];
+    while (!stop_) {
+      if (frozen_) {
+        std::this_thread::sleep_for(20ms);
+        continue;
+      }
+      pollfd fds[2] = {{client_, POLLIN, 0}, {server_, POLLIN, 0}};
+      if (poll(fds, 2, 20) <= 0) continue;
+      for (int i = 0; i < 2; ++i) {
+        if ((fds[i].revents & (POLLIN | POLLHUP | POLLERR)) == 0) continue;
+        const ssize_t n = read(fds[i].fd, buffer, sizeof buffer);
+        if (n <= 0) return;
+        const int to = i == 0 ? server_ : client_;
+        for (ssize_t sent = 0; sent < n;) {
+          const ssize_t w = write(to, buffer + sent, static_cast<size_t>(n - sent));
+          if (w <= 0) return;
+          sent += w;
+        }
+      }
+    }
+  }
+
+  int target_port_;
+  int listener_ = -1, client_ = -1, server_ = -1;
+  int port_ = 0;
+  std::atomic<bool> frozen_{false}, stop_{false};
+  std::thread thread_;
+};
+
+// A client whose network goes silent (the proxy between it and the server freezes) while it
+// reads a world's frames: the server's keepalive pings go unanswered and its stream ends within
+// --keepalive-ms + --keepalive-timeout-ms (here 300 + 300 ms; the bound, 3 s, leaves room for a
+// loaded machine), long before the reader-stall limit (10 min here) would have ended it.
+TEST(FaultTest, TheStreamsOfAClientThatVanishedEndByKeepalive) {
+  ServerProcess server({"--keepalive-ms", "300", "--keepalive-timeout-ms", "300",
+                        "--max-reader-stall-ms", "600000", "--log", "off"});
+  ASSERT_FALSE(server.address().empty());
+  auto direct = connect(server);
+  Result<client::WorldSummary> world = direct->create_world_json(pyramid_json());
+  ASSERT_TRUE(world.ok()) << world.status().message();
+  ASSERT_TRUE(direct->set_run_mode(world->id, client::RunMode::kRealTime).ok());
+  const int port = std::stoi(server.address().substr(server.address().rfind(':') + 1));
+  FreezableProxy proxy(port);
+  client::ClientOptions options;
+  options.address = proxy.address();
+  auto remote = client::Client::connect(options);
+  std::atomic<int> frames{0};
+  auto sub = remote->subscribe(world->id, {}, [&](const client::Frame&) { ++frames; });
+  ASSERT_TRUE(sub.ok());
+  ASSERT_TRUE(eventually([&] { return frames > 10; }, 10s));
+  ASSERT_EQ(streams_open(direct.get()), 1u);
+  proxy.freeze();
+  const auto frozen_at = std::chrono::steady_clock::now();
+  ASSERT_TRUE(eventually([&] { return streams_open(direct.get()) == 0; }, 20s));
+  const auto took = std::chrono::steady_clock::now() - frozen_at;
+  EXPECT_LT(took, 3s);
+  std::printf("the stream of a silent client ended %.2f s after its network froze\n",
+              std::chrono::duration<double>(took).count());
+  (*sub)->cancel();
 }
 
 }  // namespace
