@@ -8,8 +8,12 @@
 //      it can: frames per second delivered to each reader and bytes per body per frame, for
 //      every body (ALL) and changed bodies (CHANGED), full precision and quantized, with 1, 10
 //      and 100 readers on connections of their own.
+//   4. With --abuse, only this: Step(1) p50 and p99 on the `mixed` world alone, and again while
+//      other clients misbehave: 20 frame streams that never read, 100 idle connections, and 4
+//      clients calling GetWorld and Step(1) on a 1000-body world as fast as they can; with the
+//      process's resident memory before and after.
 // Prints Markdown tables.
-//   fulcrum_load_bench [--calls N] [--seconds S] [--readers 1,10,100]
+//   fulcrum_load_bench [--calls N] [--seconds S] [--readers 1,10,100] [--abuse]
 #include <grpcpp/grpcpp.h>
 
 #include <algorithm>
@@ -199,6 +203,91 @@ StreamResult stream_run(const std::string& address, Physics::Stub* driver, uint6
   return out;
 }
 
+// This process's resident memory, MB.
+double rss_mb() {
+  std::FILE* f = std::fopen("/proc/self/status", "r");
+  if (f == nullptr) return -1;
+  char line[256];
+  long kb = -1;
+  while (std::fgets(line, sizeof line, f) != nullptr) {
+    if (std::strncmp(line, "VmRSS:", 6) == 0) kb = std::atol(line + 6);
+  }
+  std::fclose(f);
+  return kb / 1024.0;
+}
+
+void abuse_table(const std::string& address, Physics::Stub* driver, int calls) {
+  const uint64_t small = create(driver, builtin("mixed"));
+  const uint64_t big = create(driver, drifting_circles());
+  auto latencies = [&] {
+    std::vector<double> ms;
+    for (int i = 0; i < 20; ++i) step_once(driver, small);
+    for (int i = 0; i < calls; ++i) ms.push_back(step_once(driver, small));
+    return ms;
+  };
+  std::printf("## A client's Step(1) round trips while others misbehave (%d calls)\n\n", calls);
+  std::printf("| while | p50 ms | p99 ms | RSS MB |\n|---|---|---|---|\n");
+  std::vector<double> alone = latencies();
+  std::printf("| nothing else | %.3f | %.3f | %.0f |\n", percentile(alone, 0.5),
+              percentile(alone, 0.99), rss_mb());
+
+  // 20 streams of the 1000-body world (frames of about 70 kB) that are never read.
+  struct Idle {
+    std::shared_ptr<grpc::Channel> channel;
+    std::unique_ptr<Physics::Stub> stub;
+    grpc::ClientContext context;
+    std::unique_ptr<grpc::ClientReader<fulcrum::v1::Frame>> stream;
+  };
+  std::vector<std::unique_ptr<Idle>> silent;
+  for (int i = 0; i < 20; ++i) {
+    auto r = std::make_unique<Idle>();
+    r->channel = own_channel(address, 1000 + i);
+    r->stub = Physics::NewStub(r->channel);
+    fulcrum::v1::StreamFramesRequest request;
+    request.set_world_id(big);
+    r->stream = r->stub->StreamFrames(&r->context, request);
+    silent.push_back(std::move(r));
+  }
+  // 100 connections that made one call and then sit idle.
+  std::vector<std::shared_ptr<grpc::Channel>> idle;
+  for (int i = 0; i < 100; ++i) {
+    idle.push_back(own_channel(address, 2000 + i));
+    auto stub = Physics::NewStub(idle.back());
+    fulcrum::v1::GetWorldRequest get;
+    get.set_world_id(small);
+    fulcrum::v1::WorldInfo info;
+    grpc::ClientContext context;
+    (void)stub->GetWorld(&context, get, &info);
+  }
+  // 4 clients flooding the 1000-body world.
+  std::atomic<bool> stop{false};
+  std::vector<std::thread> flood;
+  for (int i = 0; i < 4; ++i) {
+    flood.emplace_back([&, i] {
+      auto channel = own_channel(address, 3000 + i);
+      auto stub = Physics::NewStub(channel);
+      while (!stop) {
+        fulcrum::v1::GetWorldRequest get;
+        get.set_world_id(big);
+        fulcrum::v1::WorldInfo info;
+        grpc::ClientContext c1;
+        (void)stub->GetWorld(&c1, get, &info);
+        step_once(stub.get(), big);
+      }
+    });
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  std::vector<double> abused = latencies();
+  std::printf(
+      "| 20 unread streams, 100 idle connections, 4 flooding clients | %.3f | %.3f | %.0f |\n",
+      percentile(abused, 0.5), percentile(abused, 0.99), rss_mb());
+  stop = true;
+  for (std::thread& t : flood) t.join();
+  for (auto& r : silent) r->context.TryCancel();
+  silent.clear();
+  std::fflush(stdout);
+}
+
 std::vector<int> parse_list(const char* text) {
   std::vector<int> out;
   for (const char* p = text; *p != '\0';) {
@@ -216,7 +305,14 @@ int main(int argc, char** argv) {
   int calls = 1000;
   double seconds = 2.0;
   std::vector<int> reader_counts = {1, 10, 100};
-  for (int i = 1; i + 1 < argc; i += 2) {
+  bool abuse = false;
+  for (int i = 1; i < argc; i += 2) {
+    if (std::strcmp(argv[i], "--abuse") == 0) {
+      abuse = true;
+      --i;  // takes no value
+      continue;
+    }
+    if (i + 1 >= argc) die(std::string("flag ") + argv[i] + " needs a value");
     if (std::strcmp(argv[i], "--calls") == 0) {
       calls = std::max(10, std::atoi(argv[i + 1]));
     } else if (std::strcmp(argv[i], "--seconds") == 0) {
@@ -235,6 +331,13 @@ int main(int argc, char** argv) {
   const std::string address = (*server)->address();
   auto driver_channel = own_channel(address, -1);
   auto driver = Physics::NewStub(driver_channel);
+
+  if (abuse) {
+    abuse_table(address, driver.get(), calls);
+    driver.reset();
+    (*server)->shutdown(std::chrono::milliseconds(100));
+    return 0;
+  }
 
   std::printf("## Step(1) round trips (%d calls each)\n\n", calls);
   std::printf("| world | bodies | p50 ms | p99 ms | server ms per tick |\n|---|---|---|---|---|\n");
