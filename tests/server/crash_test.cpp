@@ -26,18 +26,10 @@ namespace {
 using namespace std::chrono_literals;
 using testing_support::connect;
 using testing_support::eventually;
+using testing_support::push;
 using testing_support::pyramid_json;
 using testing_support::reap;
 using testing_support::ServerProcess;
-
-v1::EditBatch push(int index, double vx) {
-  v1::EditBatch batch;
-  v1::SetVelocity* v = batch.add_edits()->mutable_set_velocity();
-  v->mutable_body()->set_index(index);
-  v->mutable_body()->set_generation(1);
-  v->mutable_linear()->set_x(vx);
-  return batch;
-}
 
 struct Verified {
   int files = 0;

@@ -41,6 +41,7 @@ using namespace std::chrono_literals;
 
 using testing_support::connect;
 using testing_support::eventually;
+using testing_support::push;
 using testing_support::pyramid_json;
 using testing_support::read_text;
 using testing_support::reap;
@@ -50,15 +51,6 @@ using testing_support::spawn;
 uint64_t streams_open(client::Client* c) {
   Result<v1::ServerStats> s = c->get_stats();
   return s.ok() ? s->streams_open() : ~uint64_t{0};
-}
-
-v1::EditBatch push(int index, double vx) {
-  v1::EditBatch batch;
-  v1::SetVelocity* v = batch.add_edits()->mutable_set_velocity();
-  v->mutable_body()->set_index(index);
-  v->mutable_body()->set_generation(1);
-  v->mutable_linear()->set_x(vx);
-  return batch;
 }
 
 // 50 readers (every body or changes, full or quantized) follow a pyramid that another client

@@ -127,4 +127,14 @@ inline std::unique_ptr<client::Client> connect(const ServerProcess& server) {
   return client::Client::connect(options);
 }
 
+// One edit: set body `index`'s (generation 1) velocity to (vx, 0).
+inline v1::EditBatch push(int index, double vx) {
+  v1::EditBatch batch;
+  v1::SetVelocity* v = batch.add_edits()->mutable_set_velocity();
+  v->mutable_body()->set_index(index);
+  v->mutable_body()->set_generation(1);
+  v->mutable_linear()->set_x(vx);
+  return batch;
+}
+
 }  // namespace fulcrum::testing_support
