@@ -273,7 +273,10 @@ void RealTimePool::work() {
     const auto first = due_.begin();
     const SteadyClock::time_point now = SteadyClock::now();
     if (first->first > now) {
-      wake_.wait_until(lock, first->first);
+      // A copy: wait_until reads its deadline again after the wait, by which time another pool
+      // thread may have taken this entry out of due_ (and freed its node).
+      const SteadyClock::time_point deadline = first->first;
+      wake_.wait_until(lock, deadline);
       continue;
     }
     const Session* key = first->second;

@@ -130,6 +130,21 @@ TEST_F(RealTimeTest, RealTimeKeepsToTheSchedule) {
   EXPECT_DOUBLE_EQ(w.run.dt, kDt);
 }
 
+// Pool threads with no tick due all wait for the earliest entry of the queue; when it comes
+// due one of them takes it out (freeing its node) while the others are still waiting on its due
+// time, which wait_until reads again when they wake. Four threads on one world: under ASan
+// (tools/sanitize.sh) the pool read the freed node here until it waited on a copy.
+TEST_F(RealTimeTest, IdlePoolThreadsWaitingOnOneWorld) {
+  ServerOptions options;
+  options.worker_threads = 4;
+  start(options);
+  const uint64_t id = create(pyramid_json());
+  ASSERT_TRUE(client_->set_run_mode(id, client::RunMode::kRealTime).ok());
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ASSERT_TRUE(client_->set_run_mode(id, client::RunMode::kPaused).ok());
+  EXPECT_GT(world(id).tick, 0);
+}
+
 TEST_F(RealTimeTest, PauseStopsTheClockAndResumeContinues) {
   start();
   const uint64_t id = create(pyramid_json());
