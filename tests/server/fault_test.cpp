@@ -182,7 +182,13 @@ TEST(FaultTest, FiftyReadersFollowAnEditedWorldAndASlowOneIsCoalesced) {
               rss_peak.load(), kReaders + 1);
   EXPECT_GT(slowest.skipped, 0u);
   EXPECT_LT(slowest.seen.size(), static_cast<size_t>(kTicks));
+#ifndef FULCRUM_SANITIZED
   EXPECT_LT(rss_peak.load() - rss_before, 32 * 1024);
+#else
+  // Not under sanitizers: ASan's redzones and its quarantine of freed blocks (256 MB by
+  // default), or TSan's shadow memory, grow the server's RSS by far more than the bound.
+  std::printf("(RSS bound not checked: a sanitizer build)\n");
+#endif
 
   for (auto& r : readers) {
     if (r->sub) r->sub->cancel();
