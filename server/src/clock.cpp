@@ -1,5 +1,6 @@
 #include "clock.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -11,8 +12,12 @@ namespace fulcrum::server {
 
 // --- The schedule -----------------------------------------------------------------------------
 
+double RealTimeClock::period() const {
+  return std::clamp(dt, 1e-9, 1e9);
+}
+
 SteadyClock::time_point RealTimeClock::next_due() const {
-  const std::chrono::duration<double> offset(static_cast<double>(slots + 1) * dt);
+  const std::chrono::duration<double> offset(static_cast<double>(slots + 1) * period());
   // Rounded up, so that a wake at the returned time finds the tick due.
   return start + std::chrono::ceil<SteadyClock::duration>(offset);
 }
@@ -20,7 +25,7 @@ SteadyClock::time_point RealTimeClock::next_due() const {
 int64_t RealTimeClock::due_at(SteadyClock::time_point now) const {
   if (now <= start) return 0;
   const double elapsed = std::chrono::duration<double>(now - start).count();
-  const auto slots_by_now = static_cast<int64_t>(std::floor(elapsed / dt));
+  const auto slots_by_now = static_cast<int64_t>(std::floor(elapsed / period()));
   return slots_by_now > slots ? slots_by_now - slots : 0;
 }
 
@@ -127,7 +132,8 @@ std::optional<SteadyClock::time_point> Session::run_due_ticks(SteadyClock::time_
   clock_.busy_retries += busy_retries_pending_.exchange(0);
   if (world_.settings().dt != clock_.dt) {
     // An edit changed dt: the schedule goes on from the last tick's slot at the new period.
-    const std::chrono::duration<double> consumed(static_cast<double>(clock_.slots) * clock_.dt);
+    const std::chrono::duration<double> consumed(static_cast<double>(clock_.slots) *
+                                                 clock_.period());
     clock_.start += std::chrono::duration_cast<SteadyClock::duration>(consumed);
     clock_.slots = 0;
     clock_.dt = world_.settings().dt;

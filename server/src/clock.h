@@ -62,6 +62,11 @@ struct RealTimeClock {
   SteadyClock::time_point last_log;
   int64_t dropped_unlogged = 0;
 
+  // The schedule's period: dt within [1 ns, 1e9 s]. dt is only checked to be finite and > 0;
+  // counted in the clock's nanoseconds, a shorter tick would overflow the slot count (it is
+  // always due: the world runs at the catch-up cap) and a longer one the due time (it never
+  // comes due, about 32 years ahead).
+  double period() const;
   // When tick `slots + 1` of the schedule is due.
   SteadyClock::time_point next_due() const;
   // Ticks of the schedule due by `now` and not yet consumed (0 when early).

@@ -4,6 +4,8 @@
 // offered, and worlds are deleted while they run. tools/sanitize.sh runs it under
 // ThreadSanitizer, which sees all of this code's synchronization (it cannot see Debian's gRPC's,
 // so the tests through gRPC run under ASan and UBSan only; docs/robustness.md).
+#include <sys/resource.h>
+
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -176,6 +178,48 @@ TEST(SessionThreads, RealTimeWorldsUnderConcurrentCallsAndReaders) {
   EXPECT_GT(info.tick(), 0);
   EXPECT_GT(frames.load(), 0);
   EXPECT_EQ(backwards.load(), 0);
+}
+
+// CPU time of this process, s.
+double cpu_seconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
+}
+
+// The tick length is only checked to be finite and > 0, so the clock's schedule must hold for
+// any such value. A tick far shorter than a nanosecond (more slots due than an int64 holds) runs
+// at the catch-up cap and drops the rest; a tick of 1e300 s never comes due, and the pool does
+// not spin on it. Converting those slot counts and due times to integers overflowed (UBSan:
+// float-cast-overflow in RealTimeClock::due_at and next_due); what a build without UBSan then
+// did was up to the compiler (gcc -O2 happened to keep these facts).
+TEST(SessionClock, TickLengthsBeyondTheClocksRangeKeepTheSchedule) {
+  RealTimePool pool(2);
+  for (double dt : {1e-300, 1e300}) {
+    Result<SceneDef> scene = scenes::builtin("bounce");
+    ASSERT_TRUE(scene.ok());
+    scene->settings.dt = dt;
+    Result<World> world = build_world(*scene);
+    ASSERT_TRUE(world.ok()) << world.status().message();
+    auto session = std::make_shared<Session>(1, "bounce", std::move(world).value(), Limits());
+    v1::SetRunModeReply reply;
+    const double cpu_before = cpu_seconds();
+    ASSERT_TRUE(session->set_run_mode(&pool, v1::RUN_MODE_REAL_TIME, std::nullopt, &reply).ok());
+    std::this_thread::sleep_for(200ms);
+    ASSERT_TRUE(session->set_run_mode(&pool, v1::RUN_MODE_PAUSED, std::nullopt, &reply).ok());
+    const double cpu = cpu_seconds() - cpu_before;
+    v1::WorldInfo info;
+    session->info(&info);
+    if (dt < 1.0) {
+      EXPECT_GT(info.tick(), 0) << "dt " << dt;
+      EXPECT_EQ(info.run().max_ticks_in_a_wake(), kDefaultMaxCatchUpTicks);
+      EXPECT_GT(info.run().ticks_dropped(), 0);
+    } else {
+      EXPECT_EQ(info.tick(), 0) << "dt " << dt;
+      EXPECT_LT(cpu, 0.1) << "dt " << dt << ": the pool spun for " << cpu << " s of CPU in 0.2 s";
+    }
+  }
 }
 
 }  // namespace
