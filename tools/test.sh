@@ -2,7 +2,8 @@
 # The whole test suite: install what is missing, check formatting, build with warnings as
 # errors, run every test through ctest in parallel, then check that gcc -O0 and clang -O2
 # builds step scenes to the same state hashes as the main build, and that an aarch64 build
-# (Debian's cross compiler, run under qemu-user) gives the golden hashes at every tick.
+# (Debian's cross compiler, run under qemu-user) gives the golden hashes at every tick; last, the
+# sanitizer builds (tools/sanitize.sh: ASan+UBSan on every test, TSan on the threaded code).
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 fulcrum_install_packages
@@ -11,3 +12,4 @@ fulcrum_build
 (cd "$FULCRUM_BUILD" && ctest --output-on-failure -j "$(nproc)" --timeout 900)
 bash "$FULCRUM_ROOT/tools/determinism.sh"
 bash "$FULCRUM_ROOT/tools/cross_aarch64.sh"
+bash "$FULCRUM_ROOT/tools/sanitize.sh"
