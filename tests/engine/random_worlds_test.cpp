@@ -54,6 +54,16 @@ class Random {
   uint64_t state_;
 };
 
+// A point drawn from [x_lo, x_hi] x [y_lo, y_hi], y first. Arguments are evaluated in an
+// unspecified order (gcc right to left, clang left to right), so Vec2(r.uniform(..),
+// r.uniform(..)) made each compiler build different worlds from one seed; the draws here and
+// below are sequenced in the order of the gcc builds that chose the seeds in this file.
+Vec2 uniform_point(Random& r, double x_lo, double x_hi, double y_lo, double y_hi) {
+  const double y = r.uniform(y_lo, y_hi);
+  const double x = r.uniform(x_lo, x_hi);
+  return Vec2(x, y);
+}
+
 ShapeDef random_shape(Random& r, bool dynamic) {
   ShapeDef def;
   def.density = r.log_uniform(0.1, 10.0);  // relative: random_scene scales the body's mass
@@ -61,7 +71,7 @@ ShapeDef random_shape(Random& r, bool dynamic) {
   def.restitution = r.chance(0.3) ? r.uniform(0.0, 1.0) : 0.0;
   if (r.chance(0.05)) def.filter.group_index = -1;
   const double size = r.log_uniform(0.02, 2.0);
-  const Vec2 offset(r.uniform(-0.2, 0.2), r.uniform(-0.2, 0.2));
+  const Vec2 offset = uniform_point(r, -0.2, 0.2, -0.2, 0.2);
   switch (r.below(dynamic ? 4 : 5)) {
     case 0:
       def.geometry = Circle{offset, size};
@@ -75,7 +85,7 @@ ShapeDef random_shape(Random& r, bool dynamic) {
     case 3: {
       std::vector<Vec2> points;
       for (int i = 0; i < 3 + r.below(6); ++i) {
-        points.push_back(offset + Vec2(r.uniform(-size, size), r.uniform(-size, size)));
+        points.push_back(offset + uniform_point(r, -size, size, -size, size));
       }
       std::vector<Vec2> hull;
       Polygon polygon;
@@ -96,7 +106,7 @@ ShapeDef random_shape(Random& r, bool dynamic) {
 
 WorldSettings random_settings(Random& r) {
   WorldSettings s;
-  s.gravity = r.chance(0.8) ? Vec2(0, -10) : Vec2(r.uniform(-5, 5), r.uniform(-15, 5));
+  s.gravity = r.chance(0.8) ? Vec2(0, -10) : uniform_point(r, -5, 5, -15, 5);
   s.substeps = 1 + r.below(8);
   s.velocity_iterations = 1 + r.below(4);
   s.relax_iterations = r.below(3);
@@ -136,9 +146,9 @@ SceneDef random_scene(Random& r) {
                  : kind < 18 ? BodyType::kKinematic
                  : kind < 19 ? BodyType::kParticle
                              : BodyType::kStatic;
-    b.def.position = Vec2(r.uniform(-10, 10), r.uniform(1, 15));
+    b.def.position = uniform_point(r, -10, 10, 1, 15);
     b.def.angle = r.uniform(-3, 3);
-    b.def.linear_velocity = Vec2(r.uniform(-5, 5), r.uniform(-5, 5));
+    b.def.linear_velocity = uniform_point(r, -5, 5, -5, 5);
     b.def.angular_velocity = r.uniform(-3, 3);
     b.def.fixed_rotation = r.chance(0.05);
     b.def.enable_sleep = r.chance(0.9);
@@ -197,7 +207,7 @@ SceneDef random_scene(Random& r) {
     jointed[sj.body_a] = 1;
     const BodyDef& da = scene.bodies[sj.body_a].def;
     BodyDef& moved = scene.bodies[sj.body_b].def;
-    moved.position = da.position + Vec2(r.uniform(-0.6, 0.6), r.uniform(-0.6, 0.6));
+    moved.position = da.position + uniform_point(r, -0.6, 0.6, -0.6, 0.6);
     const BodyDef& db = moved;
     const Transform xa{da.position,
                        da.type == BodyType::kParticle ? Rot{} : Rot::from_angle(da.angle)};
@@ -205,8 +215,7 @@ SceneDef random_scene(Random& r) {
                        db.type == BodyType::kParticle ? Rot{} : Rot::from_angle(db.angle)};
     const double angle_a = da.type == BodyType::kParticle ? 0.0 : da.angle;
     const double angle_b = db.type == BodyType::kParticle ? 0.0 : db.angle;
-    const Vec2 meet =
-        0.5 * (da.position + db.position) + Vec2(r.uniform(-0.3, 0.3), r.uniform(-0.3, 0.3));
+    const Vec2 meet = 0.5 * (da.position + db.position) + uniform_point(r, -0.3, 0.3, -0.3, 0.3);
     const Vec2 anchor_a = xa.inv_apply(meet);
     const Vec2 anchor_b = xb.inv_apply(meet);
     switch (r.below(6)) {
@@ -252,7 +261,9 @@ SceneDef random_scene(Random& r) {
         d.local_anchor_a = anchor_a;
         d.local_anchor_b = anchor_b;
         d.reference_angle = angle_b - angle_a;
-        d.local_axis_a = Vec2(std::cos(r.uniform(0, 3)), std::sin(r.uniform(0, 3))).normalized();
+        const double sin_of = r.uniform(0, 3);  // drawn first (see uniform_point)
+        const double cos_of = r.uniform(0, 3);
+        d.local_axis_a = Vec2(std::cos(cos_of), std::sin(sin_of)).normalized();
         // Limited: along a free slide B drifts metres away, the angle row's lever arm on A
         // grows with the slide, and past about 10 m the joint flies apart (issue 16).
         d.enable_limit = true;
@@ -302,17 +313,20 @@ void random_edit(Random& r, World& w, const SceneDef& scene) {
   }
   switch (kind) {
     case 0:
-      s = w.set_linear_velocity(body, Vec2(r.uniform(-20, 20), r.uniform(-20, 20)));
+      s = w.set_linear_velocity(body, uniform_point(r, -20, 20, -20, 20));
       break;
-    case 1:
-      s = w.apply_linear_impulse(body, Vec2(r.uniform(-50, 50), r.uniform(-50, 50)),
-                                 Vec2(r.uniform(-10, 10), r.uniform(0, 10)));
+    case 1: {
+      const Vec2 point = uniform_point(r, -10, 10, 0, 10);  // drawn first (see uniform_point)
+      const Vec2 impulse = uniform_point(r, -50, 50, -50, 50);
+      s = w.apply_linear_impulse(body, impulse, point);
       break;
+    }
     case 2:
       // Teleporting a jointed body leaves its joints far from rest: see the note on joints in
       // random_scene. Free bodies only.
       if (w.impl().bodies[body.index].joints.empty()) {
-        s = w.set_transform(body, Vec2(r.uniform(-10, 10), r.uniform(1, 15)), r.uniform(-3, 3));
+        const double angle = r.uniform(-3, 3);  // drawn first (see uniform_point)
+        s = w.set_transform(body, uniform_point(r, -10, 10, 1, 15), angle);
       }
       break;
     case 3:
@@ -324,7 +338,7 @@ void random_edit(Random& r, World& w, const SceneDef& scene) {
     case 5: {
       BodyDef def = scene.bodies[1 + r.below(static_cast<int>(scene.bodies.size()) - 1)].def;
       def.type = BodyType::kDynamic;
-      def.position = Vec2(r.uniform(-10, 10), r.uniform(1, 15));
+      def.position = uniform_point(r, -10, 10, 1, 15);
       Result<BodyId> added = w.create_body(def);
       ASSERT_TRUE(added.ok()) << added.status().message();
       s = w.create_shape(*added, random_shape(r, true)).status();
@@ -493,7 +507,7 @@ TEST(RandomWorldsEnergy, AClosedBoxDoesNotGainEnergy) {
       SceneBody b;
       b.def.type = BodyType::kDynamic;
       b.def.position = Vec2(-8 + 4 * (i % 5), -8 + 4 * (i / 5));
-      b.def.linear_velocity = Vec2(r.uniform(-5, 5), r.uniform(-5, 5));
+      b.def.linear_velocity = uniform_point(r, -5, 5, -5, 5);
       b.def.angular_velocity = r.uniform(-2, 2);
       ShapeDef s = random_shape(r, true);
       s.friction = 0.0;
