@@ -72,8 +72,9 @@ summary+=("ASan+UBSan: $entries ctest entries, build ${built} s, run $((SECONDS 
 unset ASAN_OPTIONS UBSAN_OPTIONS LSAN_OPTIONS
 
 # --- 2. ThreadSanitizer: Fulcrum's own threads, without gRPC ---------------------------------
-# The engine's worker pool and multi-threaded step, and the server's sessions, real-time pool and
-# frames driven from many threads (session_test). Not the tests through gRPC (server_test,
+# The engine's worker pool and multi-threaded step (and the 2000 random worlds, a fifth of which
+# step on two threads), and the server's sessions, real-time pool and frames driven from many
+# threads (session_test). Not the tests through gRPC (server_test,
 # realtime_test, fault_test, cli, python): Debian's gRPC is not built with TSan, so TSan does not
 # see the locks and atomics with which gRPC hands a call from one of its threads to another, and
 # reports races on everything handed over, Fulcrum's objects included (hundreds per run; details
@@ -81,11 +82,12 @@ unset ASAN_OPTIONS UBSAN_OPTIONS LSAN_OPTIONS
 start=$SECONDS
 tsan="$FULCRUM_ROOT/build-tsan"
 configure "$tsan" thread
-build "$tsan" session_test frames_test worker_pool_test contact_lanes_test
+build "$tsan" session_test frames_test worker_pool_test contact_lanes_test random_worlds_test
 built=$((SECONDS - start))
 export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:log_path=$tsan/sanitizer-logs/tsan"
 entries=0
-run_ctest "$tsan" -R '^(SessionThreads|Frames|QuantizedFrames|SharedEncoding|WorkerPool|ContactLanes)\.' ||
+run_ctest "$tsan" -R \
+  '^(SessionThreads|Frames|QuantizedFrames|SharedEncoding|WorkerPool|ContactLanes)\.|^Shards/RandomWorlds\.' ||
   failed=1
 summary+=("TSan: $entries ctest entries, build ${built} s, run $((SECONDS - start - built)) s")
 unset TSAN_OPTIONS
