@@ -2,7 +2,8 @@
 # Sanitizer runs, after the test suite (tools/test.sh):
 #   1. build-asan/: clang with AddressSanitizer, LeakSanitizer and UndefinedBehaviorSanitizer,
 #      every target but the benchmarks; every ctest entry runs, the scripts that drive the built
-#      fulcrum and fulcrum-server binaries (cli.*, server.*, python.*) included.
+#      fulcrum and fulcrum-server binaries (cli.*, server.*, python.*) included. Then every fuzz
+#      target (tests/fuzz/, built here with libFuzzer) fuzzes for 20 s (tools/fuzz.sh --smoke).
 #   2. build-tsan/: clang with ThreadSanitizer; the tests of Fulcrum's threaded code that does not
 #      go through gRPC (see below).
 # Both are -O1 with assertions on (a Debug build whose -O0 is replaced) and -fno-sanitize-recover,
@@ -13,14 +14,6 @@
 # any file there fails this script. Run locally: bash tools/sanitize.sh (docs/robustness.md).
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
-
-# One configuration: directory, FULCRUM_SANITIZE value. The project is C++ only, so no C
-# compiler is named.
-configure() {
-  cmake -S "$FULCRUM_ROOT" -B "$1" -G Ninja -DCMAKE_BUILD_TYPE=Debug \
-    "-DCMAKE_CXX_FLAGS_DEBUG=-O1 -gline-tables-only" -DCMAKE_CXX_COMPILER=clang++ \
-    -DFULCRUM_BUILD_TESTS=ON -DFULCRUM_BUILD_BENCH=OFF -DFULCRUM_SANITIZE="$2" > /dev/null
-}
 
 build() {  # directory, then targets (none: all)
   local dir=$1 output targets=()
@@ -60,7 +53,7 @@ summary=()
 # --- 1. AddressSanitizer + LeakSanitizer + UndefinedBehaviorSanitizer: every ctest entry --------
 start=$SECONDS
 asan="$FULCRUM_ROOT/build-asan"
-configure "$asan" address,undefined
+fulcrum_configure_sanitized "$asan" address,undefined -DFULCRUM_FUZZ=ON
 build "$asan"
 built=$((SECONDS - start))
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:detect_stack_use_after_return=1:strict_string_checks=1:check_initialization_order=1:log_path=$asan/sanitizer-logs/asan"
@@ -70,6 +63,14 @@ entries=0
 run_ctest "$asan" || failed=1
 summary+=("ASan+UBSan: $entries ctest entries, build ${built} s, run $((SECONDS - start - built)) s")
 unset ASAN_OPTIONS UBSAN_OPTIONS LSAN_OPTIONS
+
+# --- 1b. A fuzzing smoke: every fuzz target for a few seconds, in the same build ---------------
+# (ctest above already ran each target once over its seeds and kept findings.) Longer runs are
+# by hand: tools/fuzz.sh TARGET SECONDS (docs/fuzzing.md).
+start=$SECONDS
+smoke=${FULCRUM_FUZZ_SMOKE_SECONDS:-20}
+bash "$FULCRUM_ROOT/tools/fuzz.sh" --smoke "$smoke" || failed=1
+summary+=("fuzz smoke: 7 targets, ${smoke} s each, two at a time: $((SECONDS - start)) s")
 
 # --- 2. ThreadSanitizer: Fulcrum's own threads, without gRPC ---------------------------------
 # The engine's worker pool and multi-threaded step (and the 2000 random worlds, a fifth of which
@@ -81,7 +82,7 @@ unset ASAN_OPTIONS UBSAN_OPTIONS LSAN_OPTIONS
 # in docs/robustness.md). Suppressing those would hide Fulcrum's own races in the same code.
 start=$SECONDS
 tsan="$FULCRUM_ROOT/build-tsan"
-configure "$tsan" thread
+fulcrum_configure_sanitized "$tsan" thread
 build "$tsan" session_test frames_test worker_pool_test contact_lanes_test random_worlds_test
 built=$((SECONDS - start))
 export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:log_path=$tsan/sanitizer-logs/tsan"

@@ -13,6 +13,8 @@ FULCRUM_PACKAGES=(
   libprotobuf-dev protobuf-compiler libgrpc++-dev protobuf-compiler-grpc libabsl-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libbox2d-dev
+  # clang's sanitizer and libFuzzer runtimes (tools/sanitize.sh, tools/fuzz.sh)
+  libclang-rt-14-dev
   openssl
   # The Python client (client/python) and its tests, for /usr/bin/python3; venv, setuptools
   # and wheel install it into a virtual environment without the network (tests/python).
@@ -39,6 +41,19 @@ fulcrum_build() {
       -DFULCRUM_WERROR=ON
   fi
   cmake --build "$FULCRUM_BUILD" -j "$(nproc)"
+}
+
+# A clang build at -O1 with assertions on and the sanitizers of $2 (FULCRUM_SANITIZE), in $1;
+# further arguments go to cmake. Shared by tools/sanitize.sh and tools/fuzz.sh: build-asan/ is
+# one directory for both, with libFuzzer's instrumentation (FULCRUM_FUZZ) on. The project is C++
+# only, so no C compiler is named.
+fulcrum_configure_sanitized() {
+  local dir=$1 sanitize=$2
+  shift 2
+  cmake -S "$FULCRUM_ROOT" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Debug \
+    "-DCMAKE_CXX_FLAGS_DEBUG=-O1 -gline-tables-only" -DCMAKE_CXX_COMPILER=clang++ \
+    -DFULCRUM_BUILD_TESTS=ON -DFULCRUM_BUILD_BENCH=OFF -DFULCRUM_SANITIZE="$sanitize" "$@" \
+    > /dev/null
 }
 
 # Every C++ file as clang-format (Debian's 14) would write it, per .clang-format.

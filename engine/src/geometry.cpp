@@ -163,14 +163,27 @@ bool capsule_contains(const Capsule& c, const Vec2& p) {
   return distance_squared_to_segment(p, c.center1, c.center2) <= c.radius * c.radius;
 }
 
+std::string magnitude_rule() {
+  static_assert(kMaxInputMagnitude == 1e12, "the text below names the bound");
+  return "at most 1e12 in magnitude";
+}
+
 Status check_finite(const Vec2& v, const std::string& name) {
   if (!is_finite(v)) return invalid_argument(name + ": must be finite (got " + format_vec(v) + ")");
+  if (!(std::fabs(v.x()) <= kMaxInputMagnitude && std::fabs(v.y()) <= kMaxInputMagnitude)) {
+    return invalid_argument(name + ": each coordinate must be " + magnitude_rule() + " (got " +
+                            format_vec(v) + ")");
+  }
   return Status::ok_status();
 }
 
 Status check_positive(double x, const std::string& name) {
   if (!is_finite(x) || !(x > 0.0)) {
     return invalid_argument(name + ": must be finite and > 0 (got " + format_number(x) + ")");
+  }
+  if (!(x <= kMaxInputMagnitude)) {
+    return invalid_argument(name + ": must be " + magnitude_rule() + " (got " + format_number(x) +
+                            ")");
   }
   return Status::ok_status();
 }
@@ -240,6 +253,10 @@ Status make_polygon(std::span<const Vec2> ccw_vertices, double radius, Polygon* 
   if (!is_finite(radius) || radius < 0.0) {
     return invalid_argument(f + ".radius: must be finite and >= 0 (got " + format_number(radius) +
                             ")");
+  }
+  if (!(radius <= kMaxInputMagnitude)) {
+    return invalid_argument(f + ".radius: must be " + magnitude_rule() + " (got " +
+                            format_number(radius) + ")");
   }
   auto at = [&](int i) -> const Vec2& { return ccw_vertices[static_cast<size_t>((i + n) % n)]; };
 

@@ -92,7 +92,7 @@ Status validate_weld_joint_def(const WeldJointDef& d) {
 Status validate_target_joint_def(const TargetJointDef& d) {
   FULCRUM_RETURN_IF_ERROR(check_finite("joint.local_anchor_b", d.local_anchor_b));
   FULCRUM_RETURN_IF_ERROR(check_finite("joint.target", d.target));
-  FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.max_force", d.max_force));
+  FULCRUM_RETURN_IF_ERROR(check_cap("joint.max_force", d.max_force));
   FULCRUM_RETURN_IF_ERROR(check_above("joint.hertz", d.hertz, 0.0));
   FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.damping_ratio", d.damping_ratio));
   return {};
@@ -113,7 +113,7 @@ Status validate_prismatic_joint_def(const PrismaticJointDef& d) {
                             format_number(d.upper_translation) + ")");
   }
   FULCRUM_RETURN_IF_ERROR(check_finite("joint.motor_speed", d.motor_speed));
-  FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.max_motor_force", d.max_motor_force));
+  FULCRUM_RETURN_IF_ERROR(check_cap("joint.max_motor_force", d.max_motor_force));
   FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.hertz", d.hertz));
   FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.damping_ratio", d.damping_ratio));
   FULCRUM_RETURN_IF_ERROR(check_finite("joint.target_translation", d.target_translation));
@@ -132,7 +132,7 @@ Status validate_revolute_joint_def(const RevoluteJointDef& d) {
                             ")");
   }
   FULCRUM_RETURN_IF_ERROR(check_finite("joint.motor_speed", d.motor_speed));
-  FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.max_motor_torque", d.max_motor_torque));
+  FULCRUM_RETURN_IF_ERROR(check_cap("joint.max_motor_torque", d.max_motor_torque));
   FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.hertz", d.hertz));
   FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.damping_ratio", d.damping_ratio));
   FULCRUM_RETURN_IF_ERROR(check_finite("joint.target_angle", d.target_angle));

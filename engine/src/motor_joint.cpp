@@ -19,8 +19,8 @@ namespace fulcrum {
 Status validate_motor_joint_def(const MotorJointDef& d) {
   FULCRUM_RETURN_IF_ERROR(check_finite("joint.linear_offset", d.linear_offset));
   FULCRUM_RETURN_IF_ERROR(check_finite("joint.angular_offset", d.angular_offset));
-  FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.max_force", d.max_force));
-  FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.max_torque", d.max_torque));
+  FULCRUM_RETURN_IF_ERROR(check_cap("joint.max_force", d.max_force));
+  FULCRUM_RETURN_IF_ERROR(check_cap("joint.max_torque", d.max_torque));
   FULCRUM_RETURN_IF_ERROR(check_in_range("joint.correction_factor", d.correction_factor, 0.0, 1.0));
   return {};
 }

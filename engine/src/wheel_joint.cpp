@@ -35,7 +35,7 @@ Status validate_wheel_joint_def(const WheelJointDef& d) {
                             format_number(d.upper_translation) + ")");
   }
   FULCRUM_RETURN_IF_ERROR(check_finite("joint.motor_speed", d.motor_speed));
-  FULCRUM_RETURN_IF_ERROR(check_non_negative("joint.max_motor_torque", d.max_motor_torque));
+  FULCRUM_RETURN_IF_ERROR(check_cap("joint.max_motor_torque", d.max_motor_torque));
   return {};
 }
 

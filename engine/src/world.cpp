@@ -461,12 +461,9 @@ Status World::set_shape_material(ShapeId id, double friction, double restitution
   WorldImpl& w = *impl_;
   int si = w.shape_index(id);
   if (si == kNullIndex) return stale_shape(id);
-  if (!(friction >= 0.0) || !std::isfinite(friction)) {
-    return invalid_argument("friction: must be finite and >= 0");
-  }
-  if (!(restitution >= 0.0) || !std::isfinite(restitution)) {
-    return invalid_argument("restitution: must be finite and >= 0");
-  }
+  // The ranges of ShapeDef's (validate_shape_def in types.cpp).
+  FULCRUM_RETURN_IF_ERROR(check_in_range("friction", friction, 0.0, 1e6));
+  FULCRUM_RETURN_IF_ERROR(check_in_range("restitution", restitution, 0.0, 1e3));
   w.shapes[si].friction = friction;
   w.shapes[si].restitution = restitution;
   // Contacts mix materials at creation; refresh the ones this shape is part of.

@@ -14,6 +14,7 @@
 
 #include "fulcrum/state.h"
 #include "scene_convert.h"
+#include "validation.h"
 
 namespace fulcrum {
 
@@ -130,13 +131,10 @@ Status apply_one(World* w, const v1::Edit& e, const std::string& path, const Edi
     }
     case v1::Edit::kSetVelocity: {
       const v1::SetVelocity& v = e.set_velocity();
-      // Both checked before either is set, so one edit never half-applies.
-      if (!is_finite(get(v.linear()))) {
-        return invalid_argument("linear: must be finite (got " + text(v.linear()) + ")");
-      }
-      if (!std::isfinite(v.angular())) {
-        return invalid_argument("angular: must be finite (got " + text(v.angular()) + ")");
-      }
+      // Both checked (validation.h, the engine's rules) before either is set, so one edit
+      // never half-applies.
+      FULCRUM_RETURN_IF_ERROR(check_finite("linear", get(v.linear())));
+      FULCRUM_RETURN_IF_ERROR(check_finite("angular", v.angular()));
       FULCRUM_RETURN_IF_ERROR(w->set_linear_velocity(body(v.body()), get(v.linear())));
       return w->set_angular_velocity(body(v.body()), v.angular());
     }
@@ -147,9 +145,7 @@ Status apply_one(World* w, const v1::Edit& e, const std::string& path, const Edi
     }
     case v1::Edit::kApplyImpulse: {
       const v1::ApplyImpulse& i = e.apply_impulse();
-      if (!std::isfinite(i.angular_impulse())) {
-        return invalid_argument("angular_impulse: must be finite");
-      }
+      FULCRUM_RETURN_IF_ERROR(check_finite("angular_impulse", i.angular_impulse()));
       Result<BodyState> state = w->body_state(body(i.body()));
       if (!state.ok()) return state.status();
       Vec2 point = i.has_point() ? get(i.point()) : state->center;
@@ -169,9 +165,7 @@ Status apply_one(World* w, const v1::Edit& e, const std::string& path, const Edi
       return w->set_shape_filter(shape(e.set_filter().shape()),
                                  scene_filter_from_proto(e.set_filter().filter()));
     case v1::Edit::kSetMotor:
-      if (!std::isfinite(e.set_motor().speed())) {
-        return invalid_argument("speed: must be finite (got " + text(e.set_motor().speed()) + ")");
-      }
+      FULCRUM_RETURN_IF_ERROR(check_finite("speed", e.set_motor().speed()));
       return w->set_motor_speed(joint(e.set_motor().joint()), e.set_motor().speed());
     case v1::Edit::kSetJointTarget:
       return w->set_joint_target(joint(e.set_joint_target().joint()),

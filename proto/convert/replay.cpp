@@ -101,7 +101,10 @@ Result<ReplayContents> read_replay(const std::string& path) {
   if (!in) return not_found(path + ": cannot open the replay file");
   std::ostringstream buffer;
   buffer << in.rdbuf();
-  const std::string data = buffer.str();
+  return parse_replay(buffer.str(), path);
+}
+
+Result<ReplayContents> parse_replay(std::string_view data, const std::string& path) {
   ReplayContents out;
   size_t pos = 0;
   int64_t index = 0;

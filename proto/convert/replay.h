@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "fulcrum/status.h"
@@ -62,6 +63,8 @@ struct ReplayContents {
 // Reads a whole replay. DATA_LOSS for a damaged record (checksum, parse) or a missing header;
 // FAILED_PRECONDITION for another format or version; a cut-off tail is not an error.
 Result<ReplayContents> read_replay(const std::string& path);
+// The same from a replay file's bytes; `path` names it in errors.
+Result<ReplayContents> parse_replay(std::string_view data, const std::string& path);
 // Writes contents as a replay file (used to rewrite or trim replays, and by tests).
 Status write_replay(const std::string& path, const ReplayContents& contents);
 

@@ -191,10 +191,12 @@ TEST(GeometryTest, MakePolygonRefusals) {
   const Vec2 all_on_a_line[] = {Vec2(0, 0), Vec2(1, 1), Vec2(2, 2)};
   expect_refused(all_on_a_line, 0.0, "collinear");
 
-  // Coordinates so large that the convexity arithmetic overflows are refused, not accepted
-  // with a NaN centroid.
+  // Coordinates so large that the convexity arithmetic would overflow are refused by the
+  // input bound (kMaxInputMagnitude) before any arithmetic, not accepted with a NaN centroid.
   const Vec2 huge[] = {Vec2(-1e308, -1e308), Vec2(1e308, -1e308), Vec2(0, 1e308)};
-  expect_refused(huge, 0.0, "not convex");
+  expect_refused(huge, 0.0,
+                 "vertices[0]: each coordinate must be at most 1e12 in magnitude (got (-1e+308, "
+                 "-1e+308))");
 
   // A pentagram turns left at every vertex but winds twice.
   std::vector<Vec2> star;

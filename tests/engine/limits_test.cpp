@@ -3,6 +3,8 @@
 // and build_world refuses scenes past its limits before (or while) building them.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "fulcrum/scene.h"
 #include "fulcrum/state.h"
 #include "fulcrum/world.h"
@@ -156,6 +158,58 @@ TEST(Limits, BuildWorldRefusesScenesPastItsLimits) {
   };
   EXPECT_EQ(build_world(heap, limits).status().code(), StatusCode::kCancelled);
   EXPECT_EQ(asked, 101);  // asked once per body, stopped at the 101st
+}
+
+// Finite is not enough: numbers beyond kMaxInputMagnitude (1e12) are refused wherever a user
+// gives them, with the field and the rule named, and nothing changes. Before this rule a body at
+// 1e308 m passed and turned the world to NaN within a tick.
+TEST(Limits, NumbersBeyondTheInputMagnitudeAreRefused) {
+  World w{WorldSettings{}};
+  BodyId b = w.create_body(dynamic_at(Vec2(0, 1))).value();
+  ASSERT_TRUE(w.create_shape(b, circle(Vec2::Zero(), 0.5)).ok());
+
+  Result<BodyId> far = w.create_body(dynamic_at(Vec2(0, 1e308)));
+  ASSERT_FALSE(far.ok());
+  EXPECT_EQ(far.status().message(),
+            "body.position: each coordinate must be at most 1e12 in magnitude (got (0, 1e+308))");
+  // The bound itself is accepted, just past it is not.
+  EXPECT_TRUE(w.set_transform(b, Vec2(-kMaxInputMagnitude, 1), 0).ok());
+  ASSERT_TRUE(w.set_transform(b, Vec2(0, 1), 0).ok());
+  const uint64_t after_moves = w.state_hash();
+  EXPECT_FALSE(w.set_transform(b, Vec2(std::nextafter(kMaxInputMagnitude, 1e300), 0), 0).ok());
+  const Status impulse = w.apply_linear_impulse(b, Vec2(1e300, 0), Vec2(0, 1));
+  EXPECT_EQ(impulse.message(),
+            "impulse: each coordinate must be at most 1e12 in magnitude (got "
+            "(1.0000000000000001e+300, 0))");
+  EXPECT_FALSE(w.apply_torque(b, -1e13).ok());
+  EXPECT_FALSE(w.set_angular_velocity(b, 2e12).ok());
+  EXPECT_EQ(w.state_hash(), after_moves);
+
+  ShapeDef huge = circle(Vec2::Zero(), 1e13);
+  const Status radius = w.create_shape(b, huge).status();
+  EXPECT_EQ(radius.message(), "shape.circle.radius: must be at most 1e12 in magnitude (got 1e+13)");
+  WorldSettings settings;
+  settings.gravity = Vec2(0, -1e200);
+  EXPECT_EQ(w.set_settings(settings).message(),
+            "settings.gravity: each coordinate must be at most 1e12 in magnitude (got (0, "
+            "-9.9999999999999997e+199))");
+  EXPECT_EQ(w.state_hash(), after_moves);
+
+  // Inside the bound the step stays finite: a body launched at the largest speed and spin it
+  // may be given, under the largest gravity, far from the origin.
+  World edge{WorldSettings{}};
+  settings.gravity = Vec2(0, -kMaxInputMagnitude);
+  ASSERT_TRUE(edge.set_settings(settings).ok());
+  BodyDef def = dynamic_at(Vec2(kMaxInputMagnitude, -kMaxInputMagnitude));
+  def.linear_velocity = Vec2(kMaxInputMagnitude, kMaxInputMagnitude);
+  def.angular_velocity = -kMaxInputMagnitude;
+  BodyId fast = edge.create_body(def).value();
+  ASSERT_TRUE(edge.create_shape(fast, circle(Vec2::Zero(), kMaxInputMagnitude)).ok());
+  ASSERT_TRUE(edge.apply_linear_impulse(fast, Vec2(kMaxInputMagnitude, 0), Vec2(0, 0)).ok());
+  for (int t = 0; t < 10; ++t) edge.step();
+  const BodyState s = edge.body_state(fast).value();
+  EXPECT_TRUE(std::isfinite(s.center.x()) && std::isfinite(s.center.y()) &&
+              std::isfinite(s.linear_velocity.x()) && std::isfinite(s.angular_velocity));
 }
 
 }  // namespace

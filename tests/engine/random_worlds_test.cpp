@@ -26,6 +26,7 @@
 #include "fulcrum/state.h"
 #include "fulcrum/world.h"
 #include "scene_convert.h"
+#include "world_checks.h"
 #include "world_impl.h"
 
 namespace fulcrum {
@@ -372,26 +373,12 @@ void random_edit(Random& r, World& w, const SceneDef& scene) {
   }
 }
 
-// Every body state finite and the tree valid; false (with a test failure) otherwise.
+// Every body state finite and the tree valid (world_checks.h); false (with a test failure)
+// otherwise. The snapshot check runs every 25 ticks in run_world.
 bool invariants_hold(const World& w, int tick) {
-  for (BodyId id : w.bodies()) {
-    Result<BodyState> b = w.body_state(id);
-    if (!b.ok()) return false;
-    const bool finite = std::isfinite(b->center.x()) && std::isfinite(b->center.y()) &&
-                        std::isfinite(b->linear_velocity.x()) &&
-                        std::isfinite(b->linear_velocity.y()) &&
-                        std::isfinite(b->angular_velocity) && std::isfinite(b->transform.q.c) &&
-                        std::isfinite(b->transform.q.s);
-    if (!finite) {
-      ADD_FAILURE() << "body " << id.index << " is not finite at tick " << tick;
-      return false;
-    }
-  }
-  if (!w.impl().tree.validate()) {
-    ADD_FAILURE() << "the broad-phase tree is invalid at tick " << tick;
-    return false;
-  }
-  return true;
+  const std::string problem = checks::world_problem(w, /*restore_check=*/false);
+  if (!problem.empty()) ADD_FAILURE() << problem << " at tick " << tick;
+  return problem.empty();
 }
 
 uint64_t env_number(const char* name, uint64_t fallback) {

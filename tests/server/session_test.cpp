@@ -188,15 +188,16 @@ double cpu_seconds() {
          1e-6 * static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
 }
 
-// The tick length is only checked to be finite and > 0, so the clock's schedule must hold for
-// any such value. A tick far shorter than a nanosecond (more slots due than an int64 holds) runs
-// at the catch-up cap and drops the rest; a tick of 1e300 s never comes due, and the pool does
-// not spin on it. Converting those slot counts and due times to integers overflowed (UBSan:
-// float-cast-overflow in RealTimeClock::due_at and next_due); what a build without UBSan then
-// did was up to the compiler (gcc -O2 happened to keep these facts).
+// The tick length is only checked to be > 0 and at most 1e12 s, so the clock's schedule must
+// hold for any such value. A tick far shorter than a nanosecond (more slots due than an int64
+// holds) runs at the catch-up cap and drops the rest; a tick of 1e12 s (1e21 ns, past int64)
+// never comes due, and the pool does not spin on it. Converting those slot counts and due times to
+// integers overflowed (UBSan: float-cast-overflow in RealTimeClock::due_at and next_due); what a
+// build without UBSan then did was up to the compiler (gcc -O2 happened to keep these facts).
 TEST(SessionClock, TickLengthsBeyondTheClocksRangeKeepTheSchedule) {
   RealTimePool pool(2);
-  for (double dt : {1e-300, 1e300}) {
+  // 1e12 s: the longest tick a world may have (kMaxInputMagnitude), beyond the clock's 1e9 s.
+  for (double dt : {1e-300, kMaxInputMagnitude}) {
     Result<SceneDef> scene = scenes::builtin("bounce");
     ASSERT_TRUE(scene.ok());
     scene->settings.dt = dt;

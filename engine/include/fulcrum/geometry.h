@@ -18,6 +18,14 @@ inline constexpr int kMaxPolygonVertices = 8;
 // Shorter edges or thinner polygons than this are degenerate (metres).
 inline constexpr double kGeometryTolerance = 1e-4;
 
+// The largest magnitude of any real number given to the engine: coordinates, sizes, velocities,
+// forces, impulses, settings; larger ones are refused. Finite is not enough: a body at 1e308 m
+// overflows the first difference the solver takes. With every input within 1e12 (and densities
+// within [0, 1e12]) the products a step forms, such as a polygon's inertia (density times a
+// length to the fourth, below 1e60) or an impulse times an inverse mass, stay far from
+// overflow, while a coordinate of 1e12 m still resolves to 1.2e-4 m in double precision.
+inline constexpr double kMaxInputMagnitude = 1e12;
+
 struct Circle {
   Vec2 center = Vec2::Zero();  // local position, m
   double radius = 0.5;         // m, > 0
