@@ -84,6 +84,12 @@ Status validate_body_def(const BodyDef& d) {
 Status validate_shape_def(const ShapeDef& d) {
   FULCRUM_RETURN_IF_ERROR(validate_geometry(d.geometry, "shape"));
   FULCRUM_RETURN_IF_ERROR(check_in_range("shape.density", d.density, 0.0, 1e12));
+  // 0 is a massless shape; a positive density below 1e-12 gives masses whose inverses overflow
+  // (a density of 5e-322 made a body's inverse mass infinite; found by fuzzing).
+  if (d.density != 0.0 && d.density < 1e-12) {
+    return invalid_argument("shape.density: must be 0 or at least 1e-12 (got " +
+                            format_number(d.density) + ")");
+  }
   FULCRUM_RETURN_IF_ERROR(check_in_range("shape.friction", d.friction, 0.0, 1e6));
   FULCRUM_RETURN_IF_ERROR(check_in_range("shape.restitution", d.restitution, 0.0, 1e3));
   return {};

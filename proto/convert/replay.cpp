@@ -45,8 +45,14 @@ ReplayWriter::~ReplayWriter() {
 Result<std::unique_ptr<ReplayWriter>> ReplayWriter::open(const std::string& path,
                                                          const World& world,
                                                          const ReplayOptions& options) {
+  errno = 0;
   std::FILE* f = std::fopen(path.c_str(), "wb");
-  if (f == nullptr) return not_found(path + ": cannot create the replay file");
+  if (f == nullptr) {
+    // A missing or unwritable directory, a full disk: the reason is what an operator acts on.
+    return Status(StatusCode::kFailedPrecondition,
+                  path + ": cannot create the replay file (" +
+                      (errno != 0 ? std::strerror(errno) : "unknown error") + ")");
+  }
   std::unique_ptr<ReplayWriter> w(new ReplayWriter(f, path, options.keyframe_interval));
   v1::ReplayRecord record;
   v1::ReplayHeader* h = record.mutable_header();

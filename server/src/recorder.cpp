@@ -47,7 +47,8 @@ Result<std::unique_ptr<Recorder>> Recorder::start(ReplayStore* store, uint64_t w
   options.scene = scene;
   auto writer = ReplayWriter::open(store->path_of(*name), world, options);
   if (!writer.ok()) {
-    return Status(StatusCode::kInternal, "replay: " + writer.status().message());
+    return Status(writer.status().code(),
+                  "the recording could not start: " + writer.status().message());
   }
   std::unique_ptr<Recorder> r(new Recorder());
   r->name_ = std::move(name).value();
@@ -82,7 +83,15 @@ Status Session::start_recording(ReplayStore* store, std::optional<uint32_t> keyf
   }
   auto recorder = Recorder::start(store, id_, world_, keyframe_interval.value_or(60),
                                   "server world " + std::to_string(id_) + " (" + name_ + ")");
-  if (!recorder.ok()) return recorder.status();
+  if (!recorder.ok()) {
+    // The server's disk, not the request: reported where a failed recording is (the log,
+    // recordings_failed, WorldInfo.recording.error) as well as to the caller.
+    recording_error_ = recorder.status().message();
+    ++counters().recordings_failed;
+    log_event("recording_failed", {{"world", id_}, {"error", recording_error_}});
+    refresh_summary_locked(world_.state_hash());
+    return recorder.status();
+  }
   recorder_ = std::move(recorder).value();
   recording_error_.clear();
   ++counters().recordings_started;

@@ -212,5 +212,27 @@ TEST(Limits, NumbersBeyondTheInputMagnitudeAreRefused) {
               std::isfinite(s.linear_velocity.x()) && std::isfinite(s.angular_velocity));
 }
 
+// Found by fuzzing (tests/fuzz/findings/edits/tiny-density): a box of density 5e-322 gave a
+// body an infinite inverse mass. Positive densities below 1e-12 are refused; at 1e-12 a body
+// under the largest impulse stays finite.
+TEST(Limits, DensitiesTooSmallToInvertAreRefused) {
+  World w{WorldSettings{}};
+  BodyId b = w.create_body(dynamic_at(Vec2(0, 1))).value();
+  ShapeDef tiny = circle(Vec2::Zero(), 0.5);
+  tiny.density = 4.59481050632359e-322;
+  EXPECT_EQ(w.create_shape(b, tiny).status().message(),
+            "shape.density: must be 0 or at least 1e-12 (got 4.5948105063235929e-322)");
+  tiny.density = 0.0;
+  EXPECT_TRUE(w.create_shape(b, tiny).ok()) << "a massless shape";
+  ShapeDef light = circle(Vec2(1, 0), kGeometryTolerance);
+  light.density = 1e-12;
+  ASSERT_TRUE(w.create_shape(b, light).ok());
+  ASSERT_TRUE(w.apply_linear_impulse(b, Vec2(kMaxInputMagnitude, 0), Vec2(1, 1)).ok());
+  for (int t = 0; t < 5; ++t) w.step();
+  const BodyState s = w.body_state(b).value();
+  EXPECT_TRUE(std::isfinite(s.center.x()) && std::isfinite(s.linear_velocity.x()) &&
+              std::isfinite(s.angular_velocity));
+}
+
 }  // namespace
 }  // namespace fulcrum

@@ -12,6 +12,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size == 0) return 0;
   v1::EditBatch batch;
   if (!batch.ParseFromArray(data + 1, static_cast<int>(size - 1))) return 0;
+  fuzz::print(batch);
   World w = fuzz::base_world(data[0]);
   const uint64_t hash = w.state_hash();
   const int bodies = w.body_count();

@@ -11,6 +11,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace fulcrum;
   v1::Frame message;
   if (!message.ParseFromArray(data, static_cast<int>(size))) return 0;
+  fuzz::print(message);
   const client::Frame f = client::frame_from(message);
   fuzz::check(f.bodies.size() ==
                   static_cast<size_t>(message.bodies_size() + message.quantized_bodies_size()),

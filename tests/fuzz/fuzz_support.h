@@ -81,6 +81,13 @@ inline std::optional<uint64_t> run_scene(const SceneDef& scene, const std::strin
   return initial;
 }
 
+// FULCRUM_FUZZ_PRINT=1: print each decoded message in text format (to read a finding).
+inline void print(const google::protobuf::Message& m) {
+  if (std::getenv("FULCRUM_FUZZ_PRINT") != nullptr) {
+    std::fprintf(stderr, "%s: %s\n", m.GetTypeName().c_str(), m.DebugString().c_str());
+  }
+}
+
 inline std::string_view bytes(const uint8_t* data, size_t size) {
   return {reinterpret_cast<const char*>(data), size};
 }

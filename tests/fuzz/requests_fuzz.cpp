@@ -76,6 +76,7 @@ grpc::Status call(Service& s, std::string_view bytes, const std::vector<uint64_t
     return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "does not parse");
   }
   map_world_id(&request, created);
+  fuzz::print(request);
   grpc::ServerContext context;
   return (s.service.*handler)(&context, &request, reply);
 }

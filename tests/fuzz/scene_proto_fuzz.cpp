@@ -8,6 +8,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace fulcrum;
   v1::Scene message;
   if (!message.ParseFromArray(data, static_cast<int>(size))) return 0;
+  fuzz::print(message);
   Result<SceneDef> scene = scene_from_proto(message);
   if (!scene.ok()) {
     fuzz::check_refusal(scene.status(), "scene_from_proto");

@@ -24,10 +24,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   } else if (form == 1) {
     v1::Snapshot payload;
     if (!payload.ParseFromArray(rest.data(), static_cast<int>(rest.size()))) return 0;
+    fuzz::print(payload);
     file = wrap_snapshot(payload).SerializeAsString();
   } else {
     v1::SnapshotDelta delta;
     if (!delta.ParseFromArray(rest.data(), static_cast<int>(rest.size()))) return 0;
+    fuzz::print(delta);
     Result<v1::Snapshot> next = apply_delta(snapshot_to_proto(w.snapshot()), delta);
     if (!next.ok()) {
       fuzz::check_refusal(next.status(), "apply_delta");

@@ -11,6 +11,7 @@
 #include <atomic>
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -150,6 +151,59 @@ TEST(CrashTest, AFullReplayFileStopsTheRecordingNotTheWorld) {
   const Verified v = verify_all(replays);
   EXPECT_EQ(v.files, 1);
   EXPECT_GT(v.ticks, 20);
+  EXPECT_EQ(server.terminate(), 0);
+}
+
+// The replay directory gone from under a running server, a file in its place (so that even
+// root cannot create a replay there): StartRecording is refused with FAILED_PRECONDITION and
+// the operating system's reason, which also goes to the log, the counters and GetWorld; the
+// world keeps stepping; once the directory is back, recording works again.
+TEST(CrashTest, AnUnwritableReplayDirectoryRefusesRecordingsNotTheWorld) {
+  const std::string replays = ::testing::TempDir() + "fulcrum_unwritable";
+  std::filesystem::remove_all(replays);
+  std::filesystem::create_directories(replays);
+  ServerProcess server({"--replay-dir", replays});
+  ASSERT_FALSE(server.address().empty()) << server.log();
+  auto client = connect(server);
+  Result<client::WorldSummary> created = client->create_world_json(pyramid_json());
+  ASSERT_TRUE(created.ok()) << created.status().message();
+  const uint64_t id = created->id;
+
+  std::filesystem::remove_all(replays);
+  std::ofstream(replays) << "not a directory";
+  auto refused = client->start_recording(id, 10);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.status().code(), StatusCode::kFailedPrecondition);
+  const std::string& why = refused.status().message();
+  EXPECT_NE(why.find("the recording could not start: " + replays + "/world1-"), std::string::npos)
+      << why;
+  EXPECT_NE(why.find("cannot create the replay file (Not a directory)"), std::string::npos) << why;
+  Result<client::WorldSummary> info = client->get_world(id);
+  ASSERT_TRUE(info.ok());
+  EXPECT_FALSE(info->recording.active);
+  EXPECT_NE(info->recording.error.find("Not a directory"), std::string::npos)
+      << info->recording.error;
+  Result<v1::ServerStats> stats = client->get_stats();
+  ASSERT_TRUE(stats.ok());
+  EXPECT_EQ(stats->recordings_failed(), 1u);
+  EXPECT_EQ(stats->recordings_started(), 0u);
+  EXPECT_NE(server.log().find("event=recording_failed world=1"), std::string::npos) << server.log();
+  Result<client::StepResult> stepped = client->step(id, 5);
+  ASSERT_TRUE(stepped.ok()) << stepped.status().message();
+  EXPECT_EQ(stepped->tick, 5);
+
+  std::filesystem::remove(replays);
+  std::filesystem::create_directories(replays);
+  auto started = client->start_recording(id, 10);
+  ASSERT_TRUE(started.ok()) << started.status().message();
+  ASSERT_TRUE(client->step(id, 3).ok());
+  ASSERT_TRUE(client->stop_recording(id).ok());
+  info = client->get_world(id);
+  ASSERT_TRUE(info.ok());
+  EXPECT_EQ(info->recording.error, "") << "a recording that worked keeps an old error";
+  const Verified v = verify_all(replays);
+  EXPECT_EQ(v.files, 1);
+  EXPECT_EQ(v.ticks, 3);
   EXPECT_EQ(server.terminate(), 0);
 }
 
