@@ -25,6 +25,7 @@ constexpr FlagSpec kReplayFlags[] = {
     {"out", "FILE", "record: the replay file to write"},
     {"edits", "FILE", "record: edit script (Protobuf JSON of fulcrum.v1.EditScript)"},
     {"keyframes", "K", "record, start: a full snapshot every K ticks (default 60, 0: none)"},
+    {"junit", "FILE", "verify: also write a JUnit XML report, one test case per replay"},
     kServerFlag,
     kTokenFileFlag,
     kDeadlineFlag,
@@ -91,7 +92,7 @@ constexpr Command kCommands[] = {
     {"replay", "record, verify or describe a replay file",
      "record (--scene FILE | --builtin NAME) --ticks N --out FILE [--edits FILE] "
      "[--keyframes K]\n"
-     "       fulcrum replay verify FILE\n"
+     "       fulcrum replay verify (FILE | DIR)... [--junit REPORT.xml]\n"
      "       fulcrum replay info FILE\n"
      "       fulcrum replay start WORLD [--keyframes K]   (on a fulcrum-server)\n"
      "       fulcrum replay stop WORLD\n"
@@ -100,11 +101,13 @@ constexpr Command kCommands[] = {
      "hash and a keyframe snapshot every K ticks. `verify` re-simulates it and exits 0 when\n"
      "every tick matches; otherwise it exits 1 naming the first divergent tick and, from the\n"
      "keyframe of that tick or the next, the first body, joint or contact field that differs.\n"
+     "It takes several files, and directories (their *.replay files, in name order); with\n"
+     "--junit it also writes a JUnit XML report for CI systems (docs/replays-in-ci.md).\n"
      "`start`/`stop` record a world on the server (fulcrum-server --replay-dir): every tick\n"
      "with the edit batches applied before it. `download` fetches the world's current or last\n"
      "recording, or a replay by the name `start` printed; a recording in progress comes up to\n"
      "its last complete tick.",
-     kReplayFlags, 2, run_replay},
+     kReplayFlags, 100000, run_replay},
     {"create", "create a world on a fulcrum-server from a scene file", "--scene FILE",
      "Prints \"world ID created from FILE: ...\"; ID names the world in the other commands.",
      kCreateFlags, 0, run_create},

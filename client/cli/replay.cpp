@@ -1,9 +1,13 @@
 // fulcrum replay record|verify|info: replay files (proto/convert/replay.h).
+#include <algorithm>
+#include <chrono>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <limits>
 #include <ostream>
-
-#include <fstream>
+#include <sstream>
+#include <vector>
 
 #include "command.h"
 #include "edit_convert.h"
@@ -71,24 +75,170 @@ int record(const Invocation& inv) {
   return kExitOk;
 }
 
-int verify(const Invocation& inv, const std::string& path) {
+// One replay's verification, for the console and the JUnit report.
+struct Verdict {
+  std::string path;
+  enum Kind { kOk, kDiverged, kError } kind = kOk;
+  std::string summary;  // one line
+  std::string detail;   // what differs, or the error
+  int64_t divergent_tick = -1;
+  double seconds = 0.0;
+};
+
+Verdict verify_one(const std::string& path) {
+  const auto start = std::chrono::steady_clock::now();
+  Verdict v;
+  v.path = path;
   Result<ReplayContents> replay = read_replay(path);
-  if (!replay.ok()) return inv.fail(replay.status().message());
-  Result<ReplayReport> report = verify_replay(*replay);
-  if (!report.ok()) return inv.fail(path + ": " + report.status().message());
-  if (replay->truncated) {
-    inv.err << "fulcrum replay: note: " << path
-            << " ends inside a record (cut off mid-write); verified up to its last complete "
-               "tick\n";
+  Result<ReplayReport> report =
+      replay.ok() ? verify_replay(*replay) : Result<ReplayReport>(replay.status());
+  if (!report.ok()) {
+    v.kind = Verdict::kError;
+    v.summary = "cannot be verified";
+    v.detail = report.status().message();
+    if (v.detail.rfind(path, 0) != 0) v.detail = path + ": " + v.detail;
+  } else if (!report->ok) {
+    v.kind = Verdict::kDiverged;
+    v.divergent_tick = report->first_divergent_tick;
+    v.summary = "diverged at tick " + std::to_string(report->first_divergent_tick);
+    v.detail = report->detail;
+  } else {
+    v.summary = std::to_string(report->ticks_checked) + " ticks match, final tick " +
+                std::to_string(report->final_tick) + ", state hash " + hex64(report->final_hash);
+    if (replay->truncated) {
+      v.summary +=
+          " (the file ends inside a record, cut off mid-write: verified up to its last "
+          "complete tick)";
+    }
   }
-  if (!report->ok) {
-    inv.err << "fulcrum replay: " << path << ": DIVERGED at tick " << report->first_divergent_tick
-            << ": " << report->detail << "\n";
-    return kExitError;
+  v.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return v;
+}
+
+// Text for an XML attribute or element.
+std::string xml_escape(std::string_view text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&apos;";
+        break;
+      default:
+        // XML 1.0 allows no control characters but tab, newline and carriage return.
+        if (static_cast<unsigned char>(c) < 0x20 && c != '\t' && c != '\n' && c != '\r') {
+          out += '?';
+        } else {
+          out += c;
+        }
+    }
   }
-  inv.out << path << ": OK: " << report->ticks_checked << " ticks match, final tick "
-          << report->final_tick << ", state hash " << hex64(report->final_hash) << "\n";
-  return kExitOk;
+  return out;
+}
+
+// The JUnit XML that CI systems (Jenkins, GitLab, GitHub Actions' test reporters) read: one
+// suite, one test case per replay; a divergence is a failure, an unreadable replay an error.
+Status write_junit(const std::string& path, const std::vector<Verdict>& verdicts) {
+  int failures = 0, errors = 0;
+  double seconds = 0.0;
+  for (const Verdict& v : verdicts) {
+    failures += v.kind == Verdict::kDiverged ? 1 : 0;
+    errors += v.kind == Verdict::kError ? 1 : 0;
+    seconds += v.seconds;
+  }
+  char total[32];
+  std::snprintf(total, sizeof total, "%.3f", seconds);
+  std::ostringstream xml;
+  xml << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+      << "<testsuites tests=\"" << verdicts.size() << "\" failures=\"" << failures << "\" errors=\""
+      << errors << "\" time=\"" << total << "\">\n"
+      << "  <testsuite name=\"fulcrum replay verify\" tests=\"" << verdicts.size()
+      << "\" failures=\"" << failures << "\" errors=\"" << errors << "\" time=\"" << total
+      << "\">\n";
+  for (const Verdict& v : verdicts) {
+    char time[32];
+    std::snprintf(time, sizeof time, "%.3f", v.seconds);
+    xml << "    <testcase classname=\"fulcrum.replay\" name=\"" << xml_escape(v.path)
+        << "\" time=\"" << time << "\">";
+    if (v.kind == Verdict::kOk) {
+      xml << "<system-out>" << xml_escape(v.summary) << "</system-out>";
+    } else {
+      const char* element = v.kind == Verdict::kDiverged ? "failure" : "error";
+      xml << "\n      <" << element << " message=\"" << xml_escape(v.summary) << "\" type=\""
+          << (v.kind == Verdict::kDiverged ? "divergence" : "unreadable") << "\">"
+          << xml_escape(v.detail) << "</" << element << ">\n    ";
+    }
+    xml << "</testcase>\n";
+  }
+  xml << "  </testsuite>\n</testsuites>\n";
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out || !(out << xml.str()) || !out.flush()) {
+    return Status(StatusCode::kFailedPrecondition, path + ": cannot write the JUnit report");
+  }
+  return {};
+}
+
+// Files as given; directories as their *.replay files in name order.
+Result<std::vector<std::string>> replay_files(const std::vector<std::string>& args) {
+  namespace fs = std::filesystem;
+  std::vector<std::string> out;
+  for (const std::string& arg : args) {
+    std::error_code ec;
+    if (!fs::is_directory(arg, ec)) {
+      out.push_back(arg);
+      continue;
+    }
+    std::vector<std::string> in_dir;
+    for (const fs::directory_entry& e : fs::directory_iterator(arg, ec)) {
+      if (e.path().extension() == ".replay") in_dir.push_back(e.path().string());
+    }
+    if (ec) return not_found(arg + ": cannot list the directory (" + ec.message() + ")");
+    if (in_dir.empty()) return not_found(arg + ": no *.replay files in the directory");
+    std::sort(in_dir.begin(), in_dir.end());
+    out.insert(out.end(), in_dir.begin(), in_dir.end());
+  }
+  return out;
+}
+
+int verify(const Invocation& inv, const std::vector<std::string>& args) {
+  Result<std::vector<std::string>> files = replay_files(args);
+  if (!files.ok()) return inv.fail(files.status().message());
+  std::vector<Verdict> verdicts;
+  bool all_ok = true;
+  for (const std::string& path : *files) {
+    verdicts.push_back(verify_one(path));
+    const Verdict& v = verdicts.back();
+    if (v.kind == Verdict::kOk) {
+      inv.out << path << ": OK: " << v.summary << "\n";
+    } else if (v.kind == Verdict::kDiverged) {
+      inv.err << "fulcrum replay: " << path << ": DIVERGED at tick " << v.divergent_tick << ": "
+              << v.detail << "\n";
+    } else {
+      inv.err << "fulcrum replay: error: " << v.detail << "\n";
+    }
+    all_ok = all_ok && v.kind == Verdict::kOk;
+  }
+  if (auto junit = inv.args.value("junit")) {
+    Status written = write_junit(*junit, verdicts);
+    if (!written.ok()) return inv.fail(written.message());
+  }
+  if (files->size() > 1) {
+    int ok = 0;
+    for (const Verdict& v : verdicts) ok += v.kind == Verdict::kOk ? 1 : 0;
+    inv.out << ok << " of " << files->size() << " replays verified\n";
+  }
+  return all_ok ? kExitOk : kExitError;
 }
 
 int info(const Invocation& inv, const std::string& path) {
@@ -205,9 +355,16 @@ int run_replay(const Invocation& inv) {
     if (pos.size() > 1) return inv.usage_error("record takes no FILE argument (use --out)");
     return record(inv);
   }
-  if (action == "verify" || action == "info") {
-    if (pos.size() != 2) return inv.usage_error(action + ": expected one replay FILE");
-    return action == "verify" ? verify(inv, pos[1]) : info(inv, pos[1]);
+  if (action == "verify") {
+    if (pos.size() < 2) return inv.usage_error("verify: expected replay FILEs or DIRs");
+    return verify(inv, std::vector<std::string>(pos.begin() + 1, pos.end()));
+  }
+  if (action != "verify" && inv.args.has("junit")) {
+    return inv.usage_error("--junit is for verify only");
+  }
+  if (action == "info") {
+    if (pos.size() != 2) return inv.usage_error("info: expected one replay FILE");
+    return info(inv, pos[1]);
   }
   if (action == "start" || action == "stop" || action == "download") return on_server(inv, action);
   return inv.usage_error("unknown action '" + action +

@@ -4,8 +4,11 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 
 #include "edit_convert.h"
@@ -243,6 +246,56 @@ TEST(Replay, DamagedOrForeignFilesAreRefused) {
   EXPECT_NE(r.status().message().find("version 2"), std::string::npos) << r.status().message();
   std::filesystem::remove(path);
   EXPECT_EQ(read_replay(path).status().code(), StatusCode::kNotFound);
+}
+
+// `fulcrum replay verify DIR --junit FILE`, as a CI job runs it over a folder of recordings:
+// one test case per replay, in name order; the altered replay is a failure naming its tick and
+// body, a file that is not a replay an error; the exit code is 1; every replay is still checked.
+TEST(ReplayCli, VerifiesAFolderIntoAJUnitReport) {
+  namespace fs = std::filesystem;
+  const fs::path dir = temp_path("junit_dir");
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  fs::rename(record("a.replay", 30, 40), dir / "a_honest.replay");
+  const std::string altered = record("b.replay", 1);
+  {
+    Result<ReplayContents> replay = read_replay(altered);
+    ASSERT_TRUE(replay.ok());
+    replay->ticks[70]
+        .mutable_edits(0)
+        ->mutable_edits(0)
+        ->mutable_apply_impulse()
+        ->mutable_impulse()
+        ->set_x(-25.5);
+    ASSERT_TRUE(write_replay((dir / "b_altered.replay").string(), *replay).ok());
+    fs::remove(altered);
+  }
+  std::ofstream(dir / "c_junk.replay") << "not a replay";
+  std::ofstream(dir / "notes.txt") << "not named *.replay: skipped";
+  const std::string report = (dir / "report.xml").string();
+  const std::string command = std::string(FULCRUM_CLI) + " replay verify " + dir.string() +
+                              " --junit " + report + " > " + (dir / "out.txt").string() + " 2>&1";
+  const int status = std::system(command.c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 1);
+  std::ifstream in(report);
+  const std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(xml.find("<testsuites tests=\"3\" failures=\"1\" errors=\"1\""), std::string::npos)
+      << xml;
+  const size_t a = xml.find("a_honest.replay\""), b = xml.find("b_altered.replay\""),
+               c = xml.find("c_junk.replay\"");
+  ASSERT_TRUE(a != std::string::npos && b != std::string::npos && c != std::string::npos) << xml;
+  EXPECT_TRUE(a < b && b < c) << "test cases in name order";
+  EXPECT_NE(xml.find("<system-out>40 ticks match, final tick 40"), std::string::npos) << xml;
+  EXPECT_NE(xml.find("<failure message=\"diverged at tick 71\" type=\"divergence\">"),
+            std::string::npos)
+      << xml;
+  EXPECT_NE(xml.find("first difference: bodies[551].position.x"), std::string::npos) << xml;
+  EXPECT_NE(xml.find("<error message=\"cannot be verified\" type=\"unreadable\">"),
+            std::string::npos)
+      << xml;
+  EXPECT_EQ(xml.find("notes.txt"), std::string::npos);
+  fs::remove_all(dir);
 }
 
 }  // namespace
