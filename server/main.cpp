@@ -65,6 +65,9 @@ ABSL_FLAG(int64_t, world_threads, 1,
 ABSL_FLAG(std::string, replay_dir, "",
           "DIR where StartRecording writes replays, created if missing (default: none, "
           "recording is refused)");
+ABSL_FLAG(std::string, metrics_listen, "",
+          "HOST:PORT for Prometheus metrics over HTTP at GET /metrics (port 0 picks one, "
+          "printed as \"metrics on HOST:PORT\"); default: none");
 ABSL_FLAG(std::string, tls_cert, "",
           "FILE: serve TLS only, with this PEM certificate chain (needs --tls-key)");
 ABSL_FLAG(std::string, tls_key, "", "FILE: the PEM private key of --tls-cert");
@@ -105,6 +108,7 @@ std::vector<const absl::CommandLineFlag*> fulcrum_flags() {
           &absl::GetFlagReflectionHandle(FLAGS_worker_threads),
           &absl::GetFlagReflectionHandle(FLAGS_world_threads),
           &absl::GetFlagReflectionHandle(FLAGS_replay_dir),
+          &absl::GetFlagReflectionHandle(FLAGS_metrics_listen),
           &absl::GetFlagReflectionHandle(FLAGS_tls_cert),
           &absl::GetFlagReflectionHandle(FLAGS_tls_key),
           &absl::GetFlagReflectionHandle(FLAGS_max_reader_stall_ms),
@@ -309,6 +313,7 @@ int options_from_flags(fulcrum::server::ServerOptions* options, int64_t* grace_m
   }
   options->max_streams_per_connection = static_cast<int>(n);
   options->replay_dir = absl::GetFlag(FLAGS_replay_dir);
+  options->metrics_listen = absl::GetFlag(FLAGS_metrics_listen);
   const std::string log = absl::GetFlag(FLAGS_log);
   if (log != "on" && log != "off")
     return usage_error("--log: expected on or off, got '" + log + "'");
@@ -392,6 +397,10 @@ int main(int argc, char** argv) {
   fulcrum::server::log_event("listening", {{"address", (*server)->address()},
                                            {"tls", options.tls_cert_pem.empty() ? "off" : "on"},
                                            {"token", options.token.empty() ? "off" : "on"}});
+  if (!(*server)->metrics_address().empty()) {
+    std::cout << "metrics on " << (*server)->metrics_address() << std::endl;
+    fulcrum::server::log_event("metrics_listening", {{"address", (*server)->metrics_address()}});
+  }
 
   int signal_number = 0;
   sigwait(&signals, &signal_number);

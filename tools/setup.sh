@@ -13,6 +13,8 @@ FULCRUM_PACKAGES=(
   libprotobuf-dev protobuf-compiler libgrpc++-dev protobuf-compiler-grpc libabsl-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libbox2d-dev
+  # the Prometheus metrics endpoint's HTTP server (server/src/metrics.cpp)
+  libcpp-httplib-dev
   # clang's sanitizer and libFuzzer runtimes (tools/sanitize.sh, tools/fuzz.sh)
   libclang-rt-14-dev
   openssl

@@ -94,6 +94,13 @@ Result<std::unique_ptr<Server>> Server::start(const ServerOptions& options) {
   server->server_->GetHealthCheckService()->SetServingStatus(true);
   server->server_->GetHealthCheckService()->SetServingStatus(v1::Physics::service_full_name(),
                                                              true);
+  if (!options.metrics_listen.empty()) {
+    Registry* registry = server->registry_.get();
+    auto metrics = MetricsEndpoint::start(options.metrics_listen,
+                                          [registry] { return render_metrics(*registry); });
+    if (!metrics.ok()) return metrics.status();  // the destructor shuts the gRPC side down
+    server->metrics_ = std::move(metrics).value();
+  }
   return server;
 }
 
@@ -104,7 +111,8 @@ Server::~Server() {
 void Server::shutdown(std::chrono::milliseconds grace) {
   if (stopped_) return;
   stopped_ = true;
-  if (!server_) {  // start() failed before serving
+  metrics_.reset();  // no scrape reads the registry past this point
+  if (!server_) {    // start() failed before serving
     if (pool_) pool_->shutdown();
     return;
   }

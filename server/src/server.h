@@ -9,6 +9,7 @@
 #include <string>
 
 #include "fulcrum/status.h"
+#include "metrics.h"
 #include "session.h"
 
 namespace grpc {
@@ -39,6 +40,8 @@ struct ServerOptions {
   // TLS only; both or neither.
   std::string tls_cert_pem;
   std::string tls_key_pem;
+  // Prometheus metrics over HTTP at GET /metrics (metrics.h), "HOST:PORT"; empty: off.
+  std::string metrics_listen;
 };
 
 class Server {
@@ -52,6 +55,8 @@ class Server {
   // "HOST:PORT" with the port actually bound.
   const std::string& address() const { return address_; }
   Registry& registry() { return *registry_; }
+  // The metrics endpoint's "HOST:PORT" with the port bound; empty when metrics are off.
+  std::string metrics_address() const { return metrics_ ? metrics_->address() : std::string(); }
 
   // Health goes NOT_SERVING, open streams end (UNAVAILABLE), new calls are refused
   // (UNAVAILABLE), real-time clocks stop, calls in progress get up to `grace` to finish before
@@ -71,6 +76,7 @@ class Server {
   std::unique_ptr<Registry> registry_;
   std::unique_ptr<PhysicsService> service_;
   std::unique_ptr<grpc::Server> server_;
+  std::unique_ptr<MetricsEndpoint> metrics_;
   std::shared_ptr<std::atomic<int>> calls_in_flight_ = std::make_shared<std::atomic<int>>(0);
   int port_ = 0;
   std::string address_;

@@ -49,6 +49,12 @@ void Counters::add_steps(uint32_t ticks, std::chrono::nanoseconds elapsed) {
   ticks_stepped += ticks;
   step_ns_total += ns;
   const uint64_t per_tick = ns / ticks;
+  int bucket = 0;
+  while (bucket < kStepBuckets - 1 &&
+         static_cast<double>(per_tick) * 1e-9 > kStepBucketSeconds[bucket]) {
+    ++bucket;
+  }
+  step_ticks_by_time[bucket] += ticks;
   uint64_t seen = step_ns_max.load();
   while (per_tick > seen && !step_ns_max.compare_exchange_weak(seen, per_tick)) {
   }

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cstdint>
 #include <initializer_list>
+#include <iterator>
 #include <string>
 #include <string_view>
 #include <type_traits>
@@ -35,6 +36,12 @@ struct Counters {
   std::atomic<uint64_t> recordings_started{0};
   std::atomic<uint64_t> recordings_failed{0};
   std::atomic<uint64_t> refused[17] = {};  // by grpc::StatusCode (0..16)
+  // Ticks by their wall time (a Step call's or a real-time wake's average per tick), in the
+  // buckets of kStepBucketSeconds and one past the last (the Prometheus histogram of metrics.h).
+  static constexpr double kStepBucketSeconds[] = {1e-4, 2.5e-4, 5e-4, 1e-3, 2.5e-3, 5e-3,
+                                                  1e-2, 2.5e-2, 5e-2, 0.1,  0.25,   1.0};
+  static constexpr int kStepBuckets = std::size(kStepBucketSeconds) + 1;
+  std::atomic<uint64_t> step_ticks_by_time[kStepBuckets] = {};
 
   // One Step call's ticks and their wall time (the max is per tick, the call's average).
   void add_steps(uint32_t ticks, std::chrono::nanoseconds elapsed);
