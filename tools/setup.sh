@@ -22,6 +22,8 @@ FULCRUM_PACKAGES=(
   # and wheel install it into a virtual environment without the network (tests/python).
   python3-grpcio python3-protobuf python3-numpy python3-pytest
   python3-venv python3-setuptools python3-wheel
+  # the Kubernetes manifests' check (tests/deploy/check_manifests.py)
+  python3-yaml
 )
 
 fulcrum_install_packages() {

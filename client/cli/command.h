@@ -84,5 +84,6 @@ int run_run(const Invocation& inv);
 int run_pause(const Invocation& inv);
 int run_query(const Invocation& inv);
 int run_stats(const Invocation& inv);
+int run_health(const Invocation& inv);
 
 }  // namespace fulcrum::cli

@@ -33,6 +33,12 @@ constexpr FlagSpec kReplayFlags[] = {
 
 constexpr FlagSpec kRemoteFlags[] = {kServerFlag, kTokenFileFlag, kDeadlineFlag, kTlsCaFlag,
                                      kTlsNameFlag};
+constexpr FlagSpec kHealthFlags[] = {
+    kServerFlag,
+    kDeadlineFlag,
+    kTlsCaFlag,
+    kTlsNameFlag,
+    {"service", "NAME", "the service to check (default: the whole server)"}};
 constexpr FlagSpec kCreateFlags[] = {kSceneFlag,    kServerFlag, kTokenFileFlag,
                                      kDeadlineFlag, kTlsCaFlag,  kTlsNameFlag};
 constexpr FlagSpec kStepFlags[] = {
@@ -154,6 +160,13 @@ constexpr Command kCommands[] = {
      "stepped and step time, streams, frames sent, coalesced and encoded, readers ended for\n"
      "falling too far behind, and refused requests by status code.",
      kRemoteFlags, 0, run_stats},
+    {"health", "check that a fulcrum-server is serving (the standard gRPC health check)",
+     "[--service NAME]",
+     "Prints SERVING and exits 0, or prints NOT_SERVING (a server shutting down) and exits 1;\n"
+     "a server that does not answer within --deadline-ms is an error (exit 1). --service\n"
+     "checks one service (fulcrum.v1.Physics); default: the whole server. No token needed.\n"
+     "The container image's HEALTHCHECK runs it.",
+     kHealthFlags, 0, run_health},
 };
 
 void print_main_help(std::ostream& out) {

@@ -3,10 +3,12 @@
 #include "fulcrum/client.h"
 
 #include <google/protobuf/util/json_util.h>
+#include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
 
 #include <algorithm>
 #include <atomic>
+#include <future>
 #include <mutex>
 #include <thread>
 
@@ -501,6 +503,33 @@ class GrpcClient final : public Client {
     Status st = unary(&v1::Physics::Stub::GetStats, v1::GetStatsRequest(), &reply);
     if (!st.ok()) return st;
     return reply;
+  }
+
+  Result<bool> health(const std::string& service) override {
+    // grpc.health.v1 is not among Debian's generated protos, and its two messages are one
+    // field each: HealthCheckRequest{string service = 1} and HealthCheckResponse{ServingStatus
+    // status = 1} (SERVING = 1), written and read here by hand through the generic stub.
+    if (service.size() > 127) return invalid_argument("service: at most 127 characters");
+    std::string request_bytes;
+    if (!service.empty()) {
+      request_bytes = std::string("\x0a", 1) + static_cast<char>(service.size()) + service;
+    }
+    grpc::Slice slice{request_bytes};
+    grpc::ByteBuffer request(&slice, 1), response;
+    grpc::GenericStub generic(channel_);
+    auto context = make_context();
+    std::promise<grpc::Status> done;
+    generic.UnaryCall(context.get(), "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request,
+                      &response, [&](grpc::Status s) { done.set_value(s); });
+    Status st = from_grpc(done.get_future().get());
+    if (!st.ok()) return st;
+    std::vector<grpc::Slice> slices;
+    std::string reply;
+    if (response.Dump(&slices).ok()) {
+      for (const grpc::Slice& s : slices)
+        reply.append(reinterpret_cast<const char*>(s.begin()), s.size());
+    }
+    return reply == std::string("\x08\x01", 2);
   }
 
  private:

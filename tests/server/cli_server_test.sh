@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The real fulcrum-server binary on an ephemeral loopback port, driven by the fulcrum CLI:
 # create, step (hash equal to a local `fulcrum sim`), errors with the server's message and exit
-# code 1, quantized frames through `fulcrum watch`, a token file, `fulcrum stats` and the
-# refused-request log, SIGTERM while a watch stream is open (server exits 0, the watcher is told
-# the server is stopping), and TLS.
+# code 1, quantized frames through `fulcrum watch`, a token file, `fulcrum stats`, `fulcrum
+# health` and the refused-request log, SIGTERM while a watch stream is open (server exits 0, the
+# watcher is told the server is stopping), and TLS.
 # usage: cli_server_test.sh BIN_DIR SCENES_DIR WORK_DIR
 set -euo pipefail
 BIN="$1"
@@ -134,7 +134,19 @@ grep -q "UNAUTHENTICATED" "$WORK/err.txt" || fail "no token: $(cat "$WORK/err.tx
 grep -q "^refused.UNAUTHENTICATED *1$" "$WORK/stats.txt" || fail "stats: $(cat "$WORK/stats.txt")"
 grep -q "event=refused rpc=ListWorlds code=UNAUTHENTICATED field=authorization" "$WORK/token.err" ||
   fail "no refused log line: $(cat "$WORK/token.err")"
+# `fulcrum health` (the container's HEALTHCHECK) needs no token: SERVING, exit 0, for the
+# server and for the Physics service; an unknown service exits 1, and so does a stopped server.
+[ "$("$F" health --server "$ADDR")" = "SERVING" ] || fail "health"
+[ "$("$F" health --server "$ADDR" --service fulcrum.v1.Physics)" = "SERVING" ] ||
+  fail "health of fulcrum.v1.Physics"
+if "$F" health --server "$ADDR" --service fulcrum.v1.Nothing 2>"$WORK/err.txt"; then
+  fail "health of an unknown service"
+fi
+HEALTH_ADDR="$ADDR"
 stop_server
+if "$F" health --server "$HEALTH_ADDR" --deadline-ms 2000 >/dev/null 2>&1; then
+  fail "health of a stopped server"
+fi
 
 # Real time and a replay recorded on the server: run, step refused while running, pause (the
 # tick stays put), download while recording and after, verify; then SIGTERM closes a recording

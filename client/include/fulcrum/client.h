@@ -246,6 +246,12 @@ class Client {
 
   // The server's counters (stats.proto).
   virtual Result<v1::ServerStats> get_stats() = 0;
+
+  // The standard gRPC health check (grpc.health.v1.Health/Check) for `service` ("" for the
+  // whole server, or "fulcrum.v1.Physics"): true when SERVING, false when NOT_SERVING (a
+  // server shutting down); UNAVAILABLE when nothing answers, NOT_FOUND for an unknown service.
+  // Needs no token.
+  virtual Result<bool> health(const std::string& service = "") = 0;
 };
 
 }  // namespace fulcrum::client
