@@ -28,6 +28,7 @@
 #include "absl/flags/usage.h"
 #include "absl/flags/usage_config.h"
 #include "absl/strings/match.h"
+#include "agones.h"
 #include "server.h"
 #include "stats.h"
 
@@ -81,6 +82,13 @@ ABSL_FLAG(int64_t, keepalive_timeout_ms, 10000,
           "drop a connection whose ping is not answered within this many ms, 1 to 3600000");
 ABSL_FLAG(int64_t, max_streams_per_connection, 100,
           "concurrent calls on one client connection, 1 to 100000");
+ABSL_FLAG(bool, agones, false,
+          "run as an Agones GameServer: Ready once listening, Health pings, the label worlds, "
+          "Shutdown on SIGTERM (the SDK sidecar at localhost:$AGONES_SDK_GRPC_PORT, default "
+          "9357; docs/scaling.md)");
+ABSL_FLAG(int64_t, agones_health_ms, 2000,
+          "with --agones: the Health ping period in ms, 100 to 60000 (below the GameServer's "
+          "health periodSeconds)");
 ABSL_FLAG(std::string, log, "on",
           "on|off: one key=value line per world event and refused request on stderr");
 
@@ -109,6 +117,8 @@ std::vector<const absl::CommandLineFlag*> fulcrum_flags() {
           &absl::GetFlagReflectionHandle(FLAGS_world_threads),
           &absl::GetFlagReflectionHandle(FLAGS_replay_dir),
           &absl::GetFlagReflectionHandle(FLAGS_metrics_listen),
+          &absl::GetFlagReflectionHandle(FLAGS_agones),
+          &absl::GetFlagReflectionHandle(FLAGS_agones_health_ms),
           &absl::GetFlagReflectionHandle(FLAGS_tls_cert),
           &absl::GetFlagReflectionHandle(FLAGS_tls_key),
           &absl::GetFlagReflectionHandle(FLAGS_max_reader_stall_ms),
@@ -314,6 +324,7 @@ int options_from_flags(fulcrum::server::ServerOptions* options, int64_t* grace_m
   options->max_streams_per_connection = static_cast<int>(n);
   options->replay_dir = absl::GetFlag(FLAGS_replay_dir);
   options->metrics_listen = absl::GetFlag(FLAGS_metrics_listen);
+  if (!in_range(FLAGS_agones_health_ms, 100, 60000, &n, &error)) return usage_error(error);
   const std::string log = absl::GetFlag(FLAGS_log);
   if (log != "on" && log != "off")
     return usage_error("--log: expected on or off, got '" + log + "'");
@@ -402,11 +413,34 @@ int main(int argc, char** argv) {
     fulcrum::server::log_event("metrics_listening", {{"address", (*server)->metrics_address()}});
   }
 
+  std::unique_ptr<fulcrum::server::AgonesSdk> agones;
+  if (absl::GetFlag(FLAGS_agones)) {
+    const int64_t health_ms = absl::GetFlag(FLAGS_agones_health_ms);  // checked with the rest
+    const std::string sdk_address = fulcrum::server::AgonesSdk::address_from_environment();
+    agones = std::make_unique<fulcrum::server::AgonesSdk>(sdk_address);
+    fulcrum::Status ready = agones->ready(std::chrono::seconds(30));
+    if (!ready.ok()) {
+      std::cerr << "fulcrum-server: " << ready.message() << " (the SDK sidecar at " << sdk_address
+                << ")\n";
+      return 1;
+    }
+    fulcrum::server::Registry* registry = &(*server)->registry();
+    agones->start_health(std::chrono::milliseconds(health_ms),
+                         [registry] { return static_cast<int>(registry->list().size()); });
+    fulcrum::server::log_event("agones_ready", {{"sdk", sdk_address}});
+  }
+
   int signal_number = 0;
   sigwait(&signals, &signal_number);
   std::cerr << "fulcrum-server: " << (signal_number == SIGTERM ? "SIGTERM" : "SIGINT")
             << ", stopping\n";
+  if (agones) {
+    // Agones stops allocating this server and replaces it; the grace period still applies.
+    fulcrum::Status down = agones->shutdown();
+    fulcrum::server::log_event("agones_shutdown", {{"error", down.ok() ? "" : down.message()}});
+  }
   (*server)->shutdown(std::chrono::milliseconds(grace_ms));
+  agones.reset();
   std::cerr << "fulcrum-server: stopped\n";
   return 0;
 }

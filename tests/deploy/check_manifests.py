@@ -8,6 +8,8 @@ and Service is checked for what a cluster would refuse or what would break Fulcr
 selectors that match the pod labels, probes with one handler on a declared port, fulcrum-server
 flags that exist (against the built binary's --help), a termination grace period longer than
 --grace-ms, resource requests, volumes for every mount and a Secret behind every secret volume.
+Agones Fleets and GameServers (plain YAML files) get the same pod checks, and must run the
+server with --agones, ping Health more often than their health period, and map port 50051.
 
 usage: check_manifests.py DEPLOY_DIR FULCRUM_SERVER_BINARY
 """
@@ -106,6 +108,55 @@ def check_probe(where, probe, ports):
             fail(where, f"runs {command[:2]}, not `fulcrum health`")
 
 
+def check_container_args(cw, c, flags, grace_s):
+    """Flags that exist, a termination grace above --grace-ms, files on mounted volumes."""
+    args = c.get("args", [])
+    for a in args:
+        name = re.match(r"--([a-z0-9-]+)", a)
+        if not name or name.group(1) not in flags:
+            fail(cw, f"{a!r} is not a fulcrum-server flag")
+    grace = [int(a.split("=", 1)[1]) for a in args if a.startswith("--grace-ms=")]
+    grace_ms = grace[-1] if grace else 5000
+    if grace_s * 1000 <= grace_ms:
+        fail(cw, f"terminationGracePeriodSeconds {grace_s} s is not above --grace-ms "
+                 f"{grace_ms} ms")
+    mounts = [m["mountPath"].rstrip("/") for m in c.get("volumeMounts", [])]
+    for a in args:
+        if a.startswith(("--token-file=", "--tls-cert=", "--tls-key=", "--replay-dir=")):
+            path = a.split("=", 1)[1]
+            if not any(path == m or path.startswith(m + "/") for m in mounts):
+                fail(cw, f"{a} is on no mounted volume")
+    return args
+
+
+def check_pod(where, pod_spec, flags, probes_required):
+    """A pod spec's containers: image, probes, requests, mounts, arguments."""
+    volumes = {v["name"]: v for v in pod_spec.get("volumes", [])}
+    for v in volumes.values():
+        if "secret" in v and not v["secret"].get("secretName"):
+            fail(where, f"volume {v['name']} names no Secret")
+    grace_s = pod_spec.get("terminationGracePeriodSeconds", 30)
+    all_args = []
+    for c in pod_spec["containers"]:
+        cw = f"{where} container {c['name']}"
+        if not c.get("image"):
+            fail(cw, "no image")
+        ports = {p.get("name"): p["containerPort"] for p in c.get("ports", [])}
+        for name in ("readinessProbe", "livenessProbe"):
+            if name in c:
+                check_probe(f"{cw} {name}", c[name], ports)
+            elif probes_required:
+                fail(cw, f"no {name}")
+        requests = c.get("resources", {}).get("requests", {})
+        if "cpu" not in requests or "memory" not in requests:
+            fail(cw, "resources.requests needs cpu and memory")
+        for m in c.get("volumeMounts", []):
+            if m["name"] not in volumes:
+                fail(cw, f"mounts {m['name']}, which is not a volume")
+        all_args += check_container_args(cw, c, flags, grace_s)
+    return all_args
+
+
 def check_deployment(where, d, flags):
     spec = d["spec"]
     pod = spec["template"]
@@ -113,45 +164,27 @@ def check_deployment(where, d, flags):
     for k, v in spec["selector"]["matchLabels"].items():
         if labels.get(k) != v:
             fail(where, f"selector {k}={v} does not match the pod labels {labels}")
-    volumes = {v["name"]: v for v in pod["spec"].get("volumes", [])}
-    for v in volumes.values():
-        if "secret" in v and not v["secret"].get("secretName"):
-            fail(where, f"volume {v['name']} names no Secret")
-    grace_s = pod["spec"].get("terminationGracePeriodSeconds", 30)
-    for c in pod["spec"]["containers"]:
-        cw = f"{where} container {c['name']}"
-        if not c.get("image"):
-            fail(cw, "no image")
-        ports = {p.get("name"): p["containerPort"] for p in c.get("ports", [])}
-        for name in ("readinessProbe", "livenessProbe"):
-            if name not in c:
-                fail(cw, f"no {name}")
-            else:
-                check_probe(f"{cw} {name}", c[name], ports)
-        requests = c.get("resources", {}).get("requests", {})
-        if "cpu" not in requests or "memory" not in requests:
-            fail(cw, "resources.requests needs cpu and memory")
-        for m in c.get("volumeMounts", []):
-            if m["name"] not in volumes:
-                fail(cw, f"mounts {m['name']}, which is not a volume")
-        args = c.get("args", [])
-        for a in args:
-            name = re.match(r"--([a-z0-9-]+)", a)
-            if not name or name.group(1) not in flags:
-                fail(cw, f"{a!r} is not a fulcrum-server flag")
-        grace = [int(a.split("=", 1)[1]) for a in args if a.startswith("--grace-ms=")]
-        grace_ms = grace[-1] if grace else 5000
-        if grace_s * 1000 <= grace_ms:
-            fail(cw, f"terminationGracePeriodSeconds {grace_s} s is not above --grace-ms "
-                     f"{grace_ms} ms")
-        for a in args:
-            if a.startswith(("--token-file=", "--tls-cert=", "--tls-key=", "--replay-dir=")):
-                path = a.split("=", 1)[1]
-                mounts = [m["mountPath"].rstrip("/") for m in c.get("volumeMounts", [])]
-                if not any(path == m or path.startswith(m + "/") for m in mounts):
-                    fail(cw, f"{a} is on no mounted volume")
+    check_pod(where, pod["spec"], flags, probes_required=True)
     return {p.get("name"): p["containerPort"]
             for c in pod["spec"]["containers"] for p in c.get("ports", [])}, labels
+
+
+def check_gameserver(where, spec, flags):
+    """An Agones GameServer spec (alone or a Fleet's template): the server runs with --agones,
+    pings Health well within the period Agones allows, and serves on the declared port."""
+    args = check_pod(where, spec["template"]["spec"], flags, probes_required=False)
+    if "--agones" not in args:
+        fail(where, "the server does not run with --agones (it would never become Ready)")
+    health = spec.get("health", {})
+    period_ms = health.get("periodSeconds", 5) * 1000
+    pings = [int(a.split("=", 1)[1]) for a in args if a.startswith("--agones-health-ms=")]
+    ping_ms = pings[-1] if pings else 2000
+    if not ping_ms < period_ms:
+        fail(where, f"--agones-health-ms {ping_ms} is not below health.periodSeconds "
+                    f"({period_ms} ms): Agones would mark the server Unhealthy")
+    ports = spec.get("ports", [])
+    if not any(p.get("containerPort") == 50051 for p in ports):
+        fail(where, "no port maps to 50051, where the image's entry point listens")
 
 
 def check_service(where, s, pods):
@@ -198,6 +231,19 @@ def main():
             if o.get("kind") == "Service":
                 check_service(f"{root}: Service/{o['metadata']['name']}", o, pods)
                 checked += 1
+    for root, _, names in os.walk(deploy):
+        for n in sorted(names):
+            if not n.endswith((".yaml", ".yml")) or "kustomization.yaml" in names:
+                continue
+            path = os.path.join(root, n)
+            for o in load_all(path):
+                if o.get("kind") == "Fleet":
+                    check_gameserver(f"{path}: Fleet/{o['metadata']['name']}",
+                                     o["spec"]["template"]["spec"], flags)
+                    checked += 1
+                elif o.get("kind") == "GameServer":
+                    check_gameserver(f"{path}: GameServer", o["spec"], flags)
+                    checked += 1
     for f in failures:
         print("FAIL:", f)
     print(f"{files} YAML files parsed, {checked} objects checked, {len(failures)} problems")

@@ -50,6 +50,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     return 0;
   }
   Result<ReplayReport> report = verify_replay(*replay);
+  if (std::getenv("FULCRUM_FUZZ_PRINT") != nullptr) {
+    std::fprintf(stderr, "replay of %zu ticks: %s\n", replay->ticks.size(),
+                 report.ok() ? (report->ok ? "verifies" : report->detail.c_str())
+                             : report.status().message().c_str());
+  }
   if (!report.ok()) {
     fuzz::check_refusal(report.status(), "verify_replay");
     return 0;

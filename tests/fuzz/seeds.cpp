@@ -158,9 +158,10 @@ int main(int argc, char** argv) {
           prefix(2) + make_delta(base, next).SerializeAsString());
   }
 
-  // A replay of the bridge: 24 ticks, a keyframe every 8, edits at two ticks.
+  // A replay of the bounce world (small, so that fuzzing it is fast): 24 ticks, a keyframe
+  // every 8, edits at two ticks.
   {
-    World w = fuzz::base_world(0);
+    World w = fuzz::base_world(3);
     const std::string path = (out_dir / "seed.replay").string();
     ReplayOptions options;
     options.keyframe_interval = 8;
@@ -180,8 +181,8 @@ int main(int argc, char** argv) {
     std::ifstream in(path, std::ios::binary);
     const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     fs::remove(path);
-    write("replay", "bridge_raw", std::string(1, '\0') + bytes);
-    write("replay", "bridge_fixed", std::string(1, '\1') + bytes);
+    write("replay", "bounce_raw", std::string(1, '\0') + bytes);
+    write("replay", "bounce_fixed", std::string(1, '\1') + bytes);
   }
 
   write("frames", "exact",
