@@ -553,7 +553,10 @@ class GrpcClient final : public Client {
     v1::CreateWorldReply reply;
     Status st = unary(&v1::Physics::Stub::CreateWorld, request, &reply);
     if (!st.ok()) return st;
-    return summary_from(reply.world());
+    WorldSummary out = summary_from(reply.world());
+    for (const v1::Handle& h : reply.bodies()) out.bodies.push_back(id_from<BodyId>(h));
+    for (const v1::Handle& h : reply.joints()) out.joints.push_back(id_from<JointId>(h));
+    return out;
   }
 
   Status query(const v1::QueryRequest& request, v1::QueryReply* reply) {

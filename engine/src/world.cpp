@@ -299,6 +299,14 @@ std::vector<BodyId> World::bodies() const {
   return out;
 }
 
+std::vector<JointId> World::joints() const {
+  std::vector<JointId> out;
+  for (int i = 0; i < static_cast<int>(impl_->joints.size()); ++i) {
+    if (impl_->joints[i].alive) out.push_back(impl_->joint_id(i));
+  }
+  return out;
+}
+
 int World::body_count() const {
   return impl_->body_count;
 }

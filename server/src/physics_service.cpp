@@ -335,6 +335,16 @@ grpc::Status PhysicsService::CreateWorld(grpc::ServerContext* context,
   // Counts are checked before building: a scene over a limit is refused without allocating it.
   Result<World> world = build_world(*scene, work_limits(context));
   if (!world.ok()) return to_grpc_status(world.status().with_prefix("scene."));
+  for (BodyId id : world->bodies()) {
+    v1::Handle* h = reply->add_bodies();
+    h->set_index(id.index);
+    h->set_generation(id.generation);
+  }
+  for (JointId id : world->joints()) {
+    v1::Handle* h = reply->add_joints();
+    h->set_index(id.index);
+    h->set_generation(id.generation);
+  }
   Result<std::shared_ptr<Session>> session =
       registry_->create(request->scene().name(), std::move(world).value());
   if (!session.ok()) return to_grpc_status(session.status());

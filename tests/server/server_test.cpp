@@ -152,6 +152,39 @@ v1::Edit set_velocity(int index, uint32_t generation, double vx, double vy) {
   return e;
 }
 
+// CreateWorld answers with the scene's handles in the scene's order: the builders' bodies,
+// then the explicit ones; joints as listed.
+TEST_F(ServerTest, CreateWorldAnswersTheScenesHandlesInOrder) {
+  start();
+  Result<client::WorldSummary> made = client_->create_world_json(R"({
+    "builders": [{"ground": {"half_width": 10}}],
+    "bodies": [{"type": "BODY_TYPE_DYNAMIC", "position": {"x": 5, "y": 7},
+                "shapes": [{"circle": {"radius": 0.25}}]},
+               {"type": "BODY_TYPE_DYNAMIC", "position": {"x": 6, "y": 7},
+                "shapes": [{"circle": {"radius": 0.25}}]}],
+    "joints": [{"body_a": 1, "body_b": 2, "distance": {"length": 1}}]})");
+  ASSERT_TRUE(made.ok()) << made.status().message();
+  ASSERT_EQ(made->bodies.size(), 3u);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(made->bodies[i].index, i);
+    EXPECT_EQ(made->bodies[i].generation, 1u);
+  }
+  ASSERT_EQ(made->joints.size(), 1u);
+  EXPECT_EQ(made->joints[0].index, 0);
+  // The handle names the body the scene put there.
+  v1::QueryRequest query;
+  query.set_world_id(made->id);
+  query.mutable_point()->mutable_point()->set_x(5);
+  query.mutable_point()->mutable_point()->set_y(7);
+  v1::QueryReply hits;
+  ASSERT_TRUE(stub_->Query(context().get(), query, &hits).ok());
+  ASSERT_EQ(hits.shapes_size(), 1);
+  EXPECT_EQ(hits.shapes(0).body().index(), made->bodies[1].index);
+  Result<client::WorldSummary> info = client_->get_world(made->id);
+  ASSERT_TRUE(info.ok());
+  EXPECT_TRUE(info->bodies.empty() && info->joints.empty());
+}
+
 TEST_F(ServerTest, StepsMatchALocalWorldBitForBit) {
   start();
   const uint64_t id = create_pyramid();

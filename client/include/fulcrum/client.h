@@ -75,6 +75,10 @@ struct WorldSummary {
   uint32_t watchers = 0;
   RealTimeInfo run;
   RecordingInfo recording;
+  // From create_world and create_world_json only: the scene's bodies and joints in its order
+  // (bodies[i] is the scene's i-th body). Empty in every other summary.
+  std::vector<BodyId> bodies;
+  std::vector<JointId> joints;
 };
 
 struct RunModeResult {

@@ -160,6 +160,8 @@ class World {
   Status set_joint_break_limits(JointId id, double force, double torque);
   Status destroy_joint(JointId id);
   bool is_valid(JointId id) const;
+  // Live joints in index order (a scene's joints, as build_world created them, first).
+  std::vector<JointId> joints() const;
   Result<JointState> joint_state(JointId id) const;
   // Revolute, prismatic and wheel joints.
   Status set_motor_speed(JointId id, double speed);
