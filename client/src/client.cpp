@@ -63,6 +63,8 @@ Status from_grpc(const grpc::Status& s) {
       return Status(StatusCode::kResourceExhausted, s.error_message());
     case grpc::StatusCode::DATA_LOSS:
       return Status(StatusCode::kDataLoss, s.error_message());
+    case grpc::StatusCode::PERMISSION_DENIED:
+      return Status(StatusCode::kPermissionDenied, s.error_message());
     // Messages of these codes often come from gRPC itself ("failed to connect to all
     // addresses"), so they keep the code's name in front, as every other code does.
     case grpc::StatusCode::CANCELLED:
