@@ -76,6 +76,8 @@ class Session : public std::enable_shared_from_this<Session> {
   Status step(uint32_t ticks, std::optional<int64_t> expected_tick, bool include_snapshot,
               const KeepGoing& keep_going, v1::StepReply* reply);
   void snapshot(v1::GetSnapshotReply* reply);
+  // Every body with its shapes and every joint (waits while the world is being stepped).
+  void describe(v1::DescribeWorldReply* reply);
   // Rollback: replaces the world with the snapshot (checked whole; unchanged on error).
   Status restore(const WorldSnapshot& records, v1::RestoreSnapshotReply* reply);
   Status query(const v1::QueryRequest& request, v1::QueryReply* reply);
