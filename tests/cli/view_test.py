@@ -4,7 +4,8 @@
           page, and checks that the canvas shows a body colour where the world has each body
           (screenshot pixels at the page's own view transform, window.fulcrumView.toCanvas) and
           the background where it has none; that the tick shown advances after `run`; that
-          dragging a body with the mouse lifts it and the drag joint is gone on release.
+          dragging a body with the mouse lifts it and the drag joint is gone on release; that a
+          body created by an edit while the page is open is drawn.
   replay  records a replay with `fulcrum replay record`, plays it with `fulcrum view --replay`,
           seeks the timeline to a tick and checks that the page shows that tick with the hash
           `fulcrum sim` gives for it; then plays a copy whose hash at one tick was altered and
@@ -336,6 +337,20 @@ def run_live(a, bins, work, slow):
         paused = http_json(base + "api/pause?world=1", method="POST")["tick"]
         wait_for(f"the page to show the paused tick {paused}",
                  lambda: shown_tick(browser) == paused, 30 * slow)
+
+        # A body made by an edit while the page is open: the page describes the world again
+        # and draws it (check_pixels below looks at every body).
+        edits = os.path.join(work, "edits.json")
+        with open(edits, "w") as f:
+            json.dump({"edits": [{"createBody": {
+                "type": "BODY_TYPE_KINEMATIC", "position": {"x": -3, "y": 7},
+                "shapes": [{"circle": {"radius": 0.7}}]}}]}, f)
+        subprocess.run([os.path.join(bins, "fulcrum"), "edit", "1", "--server", address,
+                        "--file", edits], check=True, stdin=subprocess.DEVNULL,
+                       stdout=subprocess.DEVNULL, timeout=60 * slow)
+        wait_for("the page to draw the new body", lambda: browser.eval(
+            "fulcrumView.ready() && fulcrumView.bodies().some(b => "
+            "b.type === 'BODY_TYPE_KINEMATIC')"), 30 * slow)
         time.sleep(0.3)  # one more animation frame
         check_pixels(browser, http_json(base + "api/describe?world=1"), f"live, tick {paused}")
         if a.screenshot:

@@ -89,11 +89,14 @@ function describe() {
   state.describing = api(path)
     .then((d) => {
       state.shapes.clear();
+      // A description at least as new as the last frame is the world as it is: edits made
+      // while a world is paused change it without a frame (frames come with ticks).
+      const current = state.tick === null || Number(d.tick) >= state.tick;
+      if (current) state.bodies.clear();
       for (const b of d.bodies || []) {
         state.shapes.set(b.handle.index + ":" + b.handle.generation,
                          { type: b.body.type, shapes: b.body.shapes || [] });
-        // A body the frames have not shown yet is drawn where the description puts it.
-        if (!state.bodies.has(b.handle.index)) {
+        if (current || !state.bodies.has(b.handle.index)) {
           state.bodies.set(b.handle.index, { gen: b.handle.generation,
                                              x: b.body.position.x, y: b.body.position.y,
                                              angle: b.body.angle, awake: b.body.awake });
@@ -351,6 +354,12 @@ async function pollStatus() {
   if (!state.world) return;
   try {
     const s = await api(`/api/status?world=${state.world}`);
+    // Edits on a paused world (another client's, or a drag) change it between frames.
+    if (s.tick === state.tick && s.hash !== state.hash) {
+      state.hash = s.hash;
+      $("hash").textContent = s.hash;
+      describe();
+    }
     const perTick = s.stepMsPerTick === null ? "" : `  step ${s.stepMsPerTick.toFixed(3)} ms/tick`;
     $("verdict").textContent = s.mode === "real_time" ? "running" : "paused";
     $("steptime").textContent = perTick.trim();
