@@ -8,7 +8,7 @@
 // destroyed on release. Replay: /api/replay/frame?tick=N re-steps the file locally (view.h).
 //
 // Signals: SIGINT and SIGTERM stop the HTTP server, end the streams and exit 0.
-#include <Eigen/Core>  // first: Eigen before httplib.h's <resolv.h>, which defines _res
+#include "view.h"  // first: Eigen (through fulcrum/world.h) before httplib.h's <resolv.h>
 
 #include <google/protobuf/util/json_util.h>
 #include <httplib.h>
@@ -27,7 +27,6 @@
 #include <thread>
 
 #include "remote.h"
-#include "view.h"
 #include "view_assets.h"
 
 namespace fulcrum::cli {
