@@ -56,11 +56,11 @@ def wait_for(what, check, timeout):
 class Process:
     """A child process whose stdout is read for a line matching a pattern."""
 
-    def __init__(self, args, log_path):
+    def __init__(self, args, log_path, env=None):
         self.args = args
         self.log = open(log_path, "w+")
         self.proc = subprocess.Popen(args, stdin=subprocess.DEVNULL, stdout=self.log,
-                                     stderr=subprocess.STDOUT)
+                                     stderr=subprocess.STDOUT, env=env)
 
     def output(self):
         self.log.flush()
@@ -144,7 +144,11 @@ class Browser:
                 "--force-device-scale-factor=1", "--window-size=1000,640",
                 "--remote-allow-origins=*", "--remote-debugging-port=0",
                 f"--user-data-dir={self.profile}", url]
-        self.chromium = Process(args, os.path.join(work, "chromium.log"))
+        # Chromium's caches and settings go to the profile, not to $HOME (unset or read-only in
+        # some CI runners).
+        env = dict(os.environ, HOME=self.profile, XDG_CONFIG_HOME=self.profile,
+                   XDG_CACHE_HOME=self.profile)
+        self.chromium = Process(args, os.path.join(work, "chromium.log"), env)
         port_file = os.path.join(self.profile, "DevToolsActivePort")
 
         def port():
