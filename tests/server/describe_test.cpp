@@ -257,6 +257,37 @@ TEST_F(DescribeWorldTest, ScenesRefuseTargetJoints) {
       << made.status().message();
 }
 
+// A drag joint's refusals name the field, and body A must be static (the target's frame).
+TEST_F(DescribeWorldTest, BadDragJointsAreRefusedByField) {
+  Result<client::WorldSummary> made = client_->create_world_json(kScene);
+  ASSERT_TRUE(made.ok()) << made.status().message();
+  auto drag = [&](int body_a, double hertz, bool anchor_a) {
+    v1::EditBatch batch;
+    v1::CreateJoint* cj = batch.add_edits()->mutable_create_joint();
+    cj->mutable_body_a()->set_index(made->bodies[body_a].index);
+    cj->mutable_body_a()->set_generation(made->bodies[body_a].generation);
+    cj->mutable_body_b()->set_index(made->bodies[1].index);
+    cj->mutable_body_b()->set_generation(made->bodies[1].generation);
+    cj->mutable_joint()->mutable_target()->set_hertz(hertz);
+    if (anchor_a) cj->mutable_joint()->mutable_local_anchor_a()->set_x(1);
+    return client_->apply_edits(made->id, batch).status();
+  };
+  Status zero_hertz = drag(0, 0.0, false);
+  EXPECT_EQ(zero_hertz.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(zero_hertz.message().find("edits[0].create_joint.joint.target.hertz"),
+            std::string::npos)
+      << zero_hertz.message();
+  Status anchor = drag(0, 5.0, true);
+  EXPECT_NE(anchor.message().find("joint.local_anchor_a"), std::string::npos) << anchor.message();
+  Status dynamic_frame = drag(2, 5.0, false);
+  EXPECT_EQ(dynamic_frame.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(dynamic_frame.message().find("must be a static body"), std::string::npos)
+      << dynamic_frame.message();
+  Result<v1::DescribeWorldReply> d = client_->describe_world(made->id);
+  ASSERT_TRUE(d.ok());
+  EXPECT_EQ(d->joints_size(), 2);  // the scene's; nothing was added
+}
+
 TEST_F(DescribeWorldTest, UnknownWorldIsNotFound) {
   Result<v1::DescribeWorldReply> d = client_->describe_world(77);
   ASSERT_FALSE(d.ok());
