@@ -539,6 +539,9 @@ int run_view(const Invocation& inv) {
     int yes = 1;
     setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
   });
+  // Each open page holds a worker for its event stream; httplib's default pool (8) would let a
+  // few tabs starve the JSON calls.
+  http.new_task_queue = [] { return new httplib::ThreadPool(32); };
   for (const ViewAsset& asset : kViewAssets) {
     http.Get(std::string(asset.path), [&asset](const httplib::Request&, httplib::Response& res) {
       res.set_content(asset.body.data(), asset.body.size(), std::string(asset.content_type));

@@ -309,8 +309,8 @@ function anchor(handle, local) {
 
 // --- Live mode -----------------------------------------------------------------------------
 
-async function startLive() {
-  for (const el of document.querySelectorAll(".live")) el.classList.remove("hidden");
+// The world picker's options: the server's worlds now (asked again when the picker is opened).
+async function listWorlds() {
   const worlds = await api("/api/worlds");
   const select = $("world");
   select.innerHTML = "";
@@ -320,10 +320,19 @@ async function startLive() {
     o.textContent = `${w.id} ${w.name} (${w.bodies} bodies)`;
     select.appendChild(o);
   }
+  if (state.world) select.value = state.world;
+  return worlds;
+}
+
+async function startLive() {
+  for (const el of document.querySelectorAll(".live")) el.classList.remove("hidden");
+  const worlds = await listWorlds();
+  const select = $("world");
   const wanted = Number(params.get("world")) || (worlds[0] && worlds[0].id);
   if (!wanted) { showError("no worlds on the server (create one: fulcrum create)"); return; }
   select.value = wanted;
   select.onchange = () => openWorld(Number(select.value));
+  select.onfocus = () => listWorlds().catch((e) => showError(e.message));
   $("run").onclick = () => post(`/api/run?world=${state.world}`).catch((e) => showError(e.message));
   $("pause").onclick = () => post(`/api/pause?world=${state.world}`).catch((e) => showError(e.message));
   $("step").onclick = () => post(`/api/step?world=${state.world}`)
