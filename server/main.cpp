@@ -50,8 +50,11 @@ ABSL_FLAG(int64_t, max_contacts, 500000,
           "live contacts per world, 1 or more; a tick that would pass it does not run (about 1 KB "
           "each; 100 000 resting bodies make about 260 000)");
 ABSL_FLAG(int64_t, max_message_bytes, 64 << 20,
-          "largest request or reply in bytes, 1024 or more; larger requests are refused with "
-          "RESOURCE_EXHAUSTED");
+          "largest request or reply in bytes, 131072 or more; larger requests are refused with "
+          "RESOURCE_EXHAUSTED (snapshots and replays also travel in 64 KiB chunks)");
+ABSL_FLAG(int64_t, max_snapshot_bytes, int64_t{1} << 30,
+          "largest snapshot RestoreSnapshotStream takes in chunks, 1024 or more bytes (held "
+          "whole while it is checked)");
 ABSL_FLAG(std::string, token_file, "",
           "FILE whose first line is a token: every call but health checks must then carry "
           "`authorization: Bearer <token>` (default: no token)");
@@ -111,6 +114,7 @@ std::vector<const absl::CommandLineFlag*> fulcrum_flags() {
           &absl::GetFlagReflectionHandle(FLAGS_max_batch_work),
           &absl::GetFlagReflectionHandle(FLAGS_max_contacts),
           &absl::GetFlagReflectionHandle(FLAGS_max_message_bytes),
+          &absl::GetFlagReflectionHandle(FLAGS_max_snapshot_bytes),
           &absl::GetFlagReflectionHandle(FLAGS_token_file),
           &absl::GetFlagReflectionHandle(FLAGS_grace_ms),
           &absl::GetFlagReflectionHandle(FLAGS_worker_threads),
@@ -303,8 +307,15 @@ int options_from_flags(fulcrum::server::ServerOptions* options, int64_t* grace_m
     return usage_error(error);
   }
   options->limits.max_contacts = n;
-  if (!in_range(FLAGS_max_message_bytes, 1024, kMaxInt, &n, &error)) return usage_error(error);
+  if (!in_range(FLAGS_max_message_bytes, fulcrum::server::ServerOptions::kMinMessageBytes, kMaxInt,
+                &n, &error)) {
+    return usage_error(error);
+  }
   options->max_message_bytes = static_cast<int>(n);
+  if (!in_range(FLAGS_max_snapshot_bytes, 1024, std::numeric_limits<int64_t>::max(), &n, &error)) {
+    return usage_error(error);
+  }
+  options->limits.max_snapshot_bytes = n;
   if (!in_range(FLAGS_grace_ms, 0, 3600000, grace_ms, &error)) return usage_error(error);
   if (!in_range(FLAGS_worker_threads, 0, 1024, &n, &error)) return usage_error(error);
   options->worker_threads = static_cast<int>(n);

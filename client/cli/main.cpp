@@ -42,8 +42,17 @@ constexpr FlagSpec kHealthFlags[] = {
 constexpr FlagSpec kCreateFlags[] = {kSceneFlag,    kServerFlag, kTokenFileFlag,
                                      kDeadlineFlag, kTlsCaFlag,  kTlsNameFlag};
 constexpr FlagSpec kStepFlags[] = {
-    kServerFlag, kTokenFileFlag, kDeadlineFlag,
-    kTlsCaFlag,  kTlsNameFlag,   {"expected-tick", "T", "step only if the world is at tick T"}};
+    kServerFlag,
+    kTokenFileFlag,
+    kDeadlineFlag,
+    kTlsCaFlag,
+    kTlsNameFlag,
+    {"expected-tick", "T", "step only if the world is at tick T"},
+    {"trajectory", "FILE.csv",
+     "write the bodies' states every --every ticks to FILE.csv ('-': stdout), every sample"},
+    {"every", "K", "with --trajectory: a sample every K ticks (default 1)"},
+    {"bodies", "I,J:G,...",
+     "with --trajectory: the bodies, by handle INDEX or INDEX:GENERATION (default: all)"}};
 constexpr FlagSpec kEditFlags[] = {
     kServerFlag,
     kTokenFileFlag,
@@ -127,7 +136,11 @@ constexpr Command kCommands[] = {
      "Prints \"world ID created from FILE: ...\"; ID names the world in the other commands.",
      kCreateFlags, 0, run_create},
     {"worlds", "list the worlds on a fulcrum-server", "", "", kRemoteFlags, 0, run_worlds},
-    {"step", "step a world on a fulcrum-server N ticks", "WORLD N [--expected-tick T]", "",
+    {"step", "step a world on a fulcrum-server N ticks",
+     "WORLD N [--expected-tick T] [--trajectory FILE.csv [--every K] [--bodies I,J,...]]",
+     "--trajectory streams the states as the server steps and waits for the file to take\n"
+     "them (StepTrajectory): one row per body per sample, tick,state_hash,body_index,\n"
+     "body_generation,x,y,angle,vx,vy,angular_velocity,awake, doubles exact to the bit.",
      kStepFlags, 2, run_step},
     {"edit", "apply an edit batch to a world on a fulcrum-server",
      "WORLD --file EDITS.json [--expected-tick T]",

@@ -1,10 +1,56 @@
-// fulcrum step: step a world on the server N ticks.
+// fulcrum step: step a world on the server N ticks, optionally writing every k-th tick of the
+// bodies named to a CSV file (StepTrajectory: nothing is skipped).
 #include <cstdio>
+#include <fstream>
 #include <ostream>
 
 #include "remote.h"
 
 namespace fulcrum::cli {
+
+namespace {
+
+// "3,7:2,12": body handles as INDEX or INDEX:GENERATION (generation 1 when left out, as for the
+// bodies of a new world's scene).
+std::optional<std::vector<BodyId>> parse_bodies(const std::string& text, std::string* error) {
+  std::vector<BodyId> out;
+  size_t start = 0;
+  while (start <= text.size()) {
+    const size_t comma = std::min(text.find(',', start), text.size());
+    const std::string item = text.substr(start, comma - start);
+    const size_t colon = item.find(':');
+    std::optional<int64_t> index = parse_int(item.substr(0, colon), 0, 0x7fffffff, error);
+    if (!index) {
+      *error = "'" + item + "': " + *error;
+      return std::nullopt;
+    }
+    int64_t generation = 1;
+    if (colon != std::string::npos) {
+      std::optional<int64_t> g = parse_int(item.substr(colon + 1), 1, 0xffffffffLL, error);
+      if (!g) {
+        *error = "'" + item + "': generation: " + *error;
+        return std::nullopt;
+      }
+      generation = *g;
+    }
+    out.push_back(BodyId{static_cast<int32_t>(*index), static_cast<uint32_t>(generation)});
+    start = comma + 1;
+  }
+  return out;
+}
+
+// One row per body per sample, every double with 17 significant digits (exact on reading).
+void write_csv_row(std::ostream& out, const client::TrajectorySample& s,
+                   const client::BodyFrame& b) {
+  char line[512];
+  std::snprintf(line, sizeof line, "%lld,%s,%d,%u,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%d\n",
+                static_cast<long long>(s.tick), hex64(s.state_hash).c_str(), b.id.index,
+                b.id.generation, b.position.x(), b.position.y(), b.angle, b.linear_velocity.x(),
+                b.linear_velocity.y(), b.angular_velocity, b.awake ? 1 : 0);
+  out << line;
+}
+
+}  // namespace
 
 int run_step(const Invocation& inv) {
   int exit_code = kExitOk;
@@ -19,14 +65,55 @@ int run_step(const Invocation& inv) {
     expected = parse_int(*t, 0, int64_t{1} << 62, &error);
     if (!expected) return inv.usage_error("--expected-tick: " + error);
   }
+  const std::optional<std::string> csv_path = inv.args.value("trajectory");
+  client::TrajectoryOptions trajectory;
+  trajectory.ticks = static_cast<uint32_t>(*ticks);
+  trajectory.expected_tick = expected;
+  if (auto every = inv.args.value("every")) {
+    std::optional<int64_t> k = parse_int(*every, 1, 0xffffffffLL, &error);
+    if (!k) return inv.usage_error("--every: " + error);
+    if (!csv_path) return inv.usage_error("--every: only with --trajectory");
+    trajectory.every_ticks = static_cast<uint32_t>(*k);
+  }
+  if (auto bodies = inv.args.value("bodies")) {
+    std::optional<std::vector<BodyId>> ids = parse_bodies(*bodies, &error);
+    if (!ids) return inv.usage_error("--bodies: " + error);
+    if (!csv_path) return inv.usage_error("--bodies: only with --trajectory");
+    trajectory.bodies = std::move(*ids);
+  }
   auto client = connect_from_args(inv, &exit_code);
   if (!client) return exit_code;
-  Result<client::StepResult> r = client->step(*world, static_cast<uint32_t>(*ticks), expected);
+  Result<client::StepResult> r = Status();
+  uint64_t samples = 0;
+  if (csv_path) {
+    std::ofstream file;
+    const bool to_stdout = *csv_path == "-";
+    if (!to_stdout) {
+      file.open(*csv_path, std::ios::binary | std::ios::trunc);
+      if (!file) return inv.fail("--trajectory: cannot write " + *csv_path);
+    }
+    std::ostream& csv = to_stdout ? inv.out : file;
+    csv << "tick,state_hash,body_index,body_generation,x,y,angle,vx,vy,angular_velocity,awake\n";
+    r = client->step_trajectory(*world, trajectory, [&](const client::TrajectorySample& s) {
+      for (const client::BodyFrame& b : s.bodies) write_csv_row(csv, s, b);
+      ++samples;
+      return csv ? Status() : Status(StatusCode::kInternal, "--trajectory: writing failed");
+    });
+    if (!to_stdout) file.close();
+    if (r.ok() && !to_stdout && !file) return inv.fail("--trajectory: cannot write " + *csv_path);
+    if (to_stdout) {
+      if (!r.ok()) return inv.fail(r.status().message());
+      return kExitOk;  // stdout holds the CSV alone
+    }
+  } else {
+    r = client->step(*world, static_cast<uint32_t>(*ticks), expected);
+  }
   if (!r.ok()) return inv.fail(r.status().message());
   char ms[32];
   std::snprintf(ms, sizeof ms, "%.3f", r->step_ms);
   inv.out << "world " << *world << ": tick " << r->tick << ", state hash " << hex64(r->state_hash)
           << ", " << r->awake_body_count << " awake, " << ms << " ms on the server\n";
+  if (csv_path) inv.out << samples << " samples written to " << *csv_path << "\n";
   return kExitOk;
 }
 

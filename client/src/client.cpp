@@ -123,6 +123,9 @@ void filter_to(const QueryFilter& filter, v1::QueryRequest* request) {
 }
 
 // FNV-1a 64, fed chunk by chunk (the checksum DownloadReplay sends).
+// The pieces snapshots travel in (service.proto, SnapshotChunk).
+constexpr size_t kSnapshotChunkBytes = 64 * 1024;
+
 class Fnv1a64 {
  public:
   void update(std::string_view bytes) {
@@ -307,31 +310,130 @@ class GrpcClient final : public Client {
     return out;
   }
 
+  Result<StepResult> step_trajectory(
+      uint64_t world, const TrajectoryOptions& options,
+      const std::function<Status(const TrajectorySample&)>& on_sample) override {
+    v1::StepTrajectoryRequest request;
+    request.set_world_id(world);
+    request.set_ticks(options.ticks);
+    request.set_every_ticks(options.every_ticks);
+    for (BodyId id : options.bodies) {
+      request.add_bodies()->set_index(id.index);
+      request.mutable_bodies()->rbegin()->set_generation(id.generation);
+    }
+    request.set_include_start(options.include_start);
+    if (options.expected_tick) request.set_expected_tick(*options.expected_tick);
+    auto context = make_context();
+    std::unique_ptr<grpc::ClientReader<v1::TrajectoryChunk>> reader =
+        stub_->StepTrajectory(context.get(), request);
+    v1::TrajectoryChunk chunk;
+    TrajectorySample sample;
+    StepResult out;
+    bool done = false;
+    Status sink_error;
+    while (sink_error.ok() && reader->Read(&chunk)) {
+      for (const v1::TrajectorySample& s : chunk.samples()) {
+        sample.tick = s.tick();
+        sample.state_hash = s.state_hash();
+        sample.bodies.clear();
+        for (const v1::BodyFrame& b : s.bodies()) sample.bodies.push_back(body_frame_from(b));
+        sink_error = on_sample(sample);
+        if (!sink_error.ok()) break;
+      }
+      if (chunk.has_done()) {
+        done = true;
+        out.tick = chunk.done().tick();
+        out.state_hash = chunk.done().state_hash();
+        out.awake_body_count = chunk.done().awake_body_count();
+        out.step_ms = chunk.done().step_ms();
+      }
+    }
+    if (!sink_error.ok()) context->TryCancel();
+    Status st = from_grpc(reader->Finish());
+    if (!sink_error.ok()) return sink_error;
+    if (!st.ok()) return st;
+    if (!done) return data_loss("trajectory: the stream ended without the final step reply");
+    return out;
+  }
+
   Result<SnapshotResult> get_snapshot(uint64_t world) override {
     v1::GetSnapshotRequest request;
     request.set_world_id(world);
-    v1::GetSnapshotReply reply;
-    Status st = unary(&v1::Physics::Stub::GetSnapshot, request, &reply);
-    if (!st.ok()) return st;
+    auto context = make_context();
+    std::unique_ptr<grpc::ClientReader<v1::SnapshotChunk>> reader =
+        stub_->DownloadSnapshot(context.get(), request);
     SnapshotResult out;
-    out.tick = reply.tick();
-    out.state_hash = reply.state_hash();
-    reply.snapshot().SerializeToString(&out.bytes);
+    v1::SnapshotChunk chunk;
+    uint64_t total = 0, checksum = 0;
+    bool first = true, last = false;
+    Status damaged;
+    while (reader->Read(&chunk)) {
+      if (first) {
+        out.tick = chunk.tick();
+        out.state_hash = chunk.state_hash();
+        total = chunk.total_size();
+        out.bytes.reserve(total);
+        first = false;
+      }
+      if (damaged.ok() && chunk.offset() != out.bytes.size()) {
+        damaged = data_loss("snapshot: chunk at offset " + std::to_string(chunk.offset()) +
+                            ", expected " + std::to_string(out.bytes.size()));
+      }
+      out.bytes += chunk.data();
+      if (chunk.last()) {
+        last = true;
+        checksum = chunk.checksum();
+      }
+    }
+    Status st = from_grpc(reader->Finish());
+    if (!st.ok()) return st;
+    if (!damaged.ok()) return damaged;
+    if (!last || out.bytes.size() != total) {
+      return data_loss("snapshot: received " + std::to_string(out.bytes.size()) + " of " +
+                       std::to_string(total) + " bytes");
+    }
+    Fnv1a64 sum;
+    sum.update(out.bytes);
+    if (sum.value() != checksum) {
+      return data_loss("snapshot: checksum mismatch (the download is damaged)");
+    }
     return out;
   }
 
   Result<RestoreResult> restore(uint64_t world, std::string_view snapshot_bytes,
                                 std::string_view name) override {
-    v1::RestoreSnapshotRequest request;
-    request.set_world_id(world);
-    request.set_name(std::string(name));
-    if (!request.mutable_snapshot()->ParseFromArray(snapshot_bytes.data(),
-                                                    static_cast<int>(snapshot_bytes.size()))) {
+    v1::SnapshotFile file;
+    if (!file.ParseFromArray(snapshot_bytes.data(), static_cast<int>(snapshot_bytes.size()))) {
       return data_loss("snapshot: not a snapshot file, or truncated (" +
                        std::to_string(snapshot_bytes.size()) + " bytes)");
     }
+    auto context = make_context();
     v1::RestoreSnapshotReply reply;
-    Status st = unary(&v1::Physics::Stub::RestoreSnapshot, request, &reply);
+    std::unique_ptr<grpc::ClientWriter<v1::RestoreSnapshotChunk>> writer =
+        stub_->RestoreSnapshotStream(context.get(), &reply);
+    Fnv1a64 sum;
+    sum.update(snapshot_bytes);
+    size_t sent = 0;
+    do {
+      const size_t n = std::min(kSnapshotChunkBytes, snapshot_bytes.size() - sent);
+      v1::RestoreSnapshotChunk message;
+      if (sent == 0) {
+        message.set_world_id(world);
+        message.set_name(std::string(name));
+        message.mutable_chunk()->set_total_size(snapshot_bytes.size());
+      }
+      v1::SnapshotChunk* chunk = message.mutable_chunk();
+      chunk->set_offset(sent);
+      chunk->set_data(std::string(snapshot_bytes.substr(sent, n)));
+      sent += n;
+      if (sent == snapshot_bytes.size()) {
+        chunk->set_last(true);
+        chunk->set_checksum(sum.value());
+      }
+      if (!writer->Write(message)) break;  // the server answered early: Finish says why
+    } while (sent < snapshot_bytes.size());
+    writer->WritesDone();
+    Status st = from_grpc(writer->Finish());
     if (!st.ok()) return st;
     return RestoreResult{reply.world_id(), reply.tick(), reply.state_hash()};
   }

@@ -20,6 +20,17 @@ constexpr double kVelocityStep = 1.0 / 1024.0;                             // m/
 
 }  // namespace
 
+BodyFrame body_frame_from(const v1::BodyFrame& b) {
+  BodyFrame m;
+  m.id = body_id(b.body());
+  m.position = Vec2(b.position().x(), b.position().y());
+  m.angle = b.angle();
+  m.linear_velocity = Vec2(b.linear_velocity().x(), b.linear_velocity().y());
+  m.angular_velocity = b.angular_velocity();
+  m.awake = b.awake();
+  return m;
+}
+
 Frame frame_from(const v1::Frame& f) {
   Frame out;
   out.world_id = f.world_id();
@@ -44,16 +55,7 @@ Frame frame_from(const v1::Frame& f) {
     m.quantized = true;
     out.bodies.push_back(m);
   }
-  for (const v1::BodyFrame& b : f.bodies()) {
-    BodyFrame m;
-    m.id = body_id(b.body());
-    m.position = Vec2(b.position().x(), b.position().y());
-    m.angle = b.angle();
-    m.linear_velocity = Vec2(b.linear_velocity().x(), b.linear_velocity().y());
-    m.angular_velocity = b.angular_velocity();
-    m.awake = b.awake();
-    out.bodies.push_back(m);
-  }
+  for (const v1::BodyFrame& b : f.bodies()) out.bodies.push_back(body_frame_from(b));
   // Quantized bodies and full-precision fallbacks come in two lists: one index order.
   if (f.quantized_bodies_size() > 0 && f.bodies_size() > 0) {
     std::stable_sort(

@@ -9,5 +9,6 @@
 namespace fulcrum::client {
 
 Frame frame_from(const v1::Frame& f);
+BodyFrame body_frame_from(const v1::BodyFrame& b);
 
 }  // namespace fulcrum::client

@@ -21,18 +21,6 @@ bool same_motion(const BodyMotion& a, const BodyMotion& b) {
          same_bits(a.angular_velocity, b.angular_velocity);
 }
 
-void motion_to_proto(const BodyMotion& m, v1::BodyFrame* out) {
-  out->mutable_body()->set_index(m.id.index);
-  out->mutable_body()->set_generation(m.id.generation);
-  out->mutable_position()->set_x(m.position.x());
-  out->mutable_position()->set_y(m.position.y());
-  out->set_angle(m.angle);
-  out->mutable_linear_velocity()->set_x(m.linear_velocity.x());
-  out->mutable_linear_velocity()->set_y(m.linear_velocity.y());
-  out->set_angular_velocity(m.angular_velocity);
-  out->set_awake(m.awake);
-}
-
 // Whether the reader's copy of a body must be replaced: any bit changed, or, for quantized
 // frames, any quantized value (a body outside the quantized ranges compares bit for bit).
 bool changed(const BodyMotion& a, const BodyMotion& b, bool quantized) {
@@ -56,6 +44,29 @@ void add_body(const BodyMotion& m, bool quantized, v1::Frame* out) {
 
 }  // namespace
 
+BodyMotion motion_of(BodyId id, const BodyState& state) {
+  BodyMotion m;
+  m.id = id;
+  m.position = state.transform.p;
+  m.angle = state.transform.q.angle();
+  m.linear_velocity = state.linear_velocity;
+  m.angular_velocity = state.angular_velocity;
+  m.awake = state.awake;
+  return m;
+}
+
+void motion_to_proto(const BodyMotion& m, v1::BodyFrame* out) {
+  out->mutable_body()->set_index(m.id.index);
+  out->mutable_body()->set_generation(m.id.generation);
+  out->mutable_position()->set_x(m.position.x());
+  out->mutable_position()->set_y(m.position.y());
+  out->set_angle(m.angle);
+  out->mutable_linear_velocity()->set_x(m.linear_velocity.x());
+  out->mutable_linear_velocity()->set_y(m.linear_velocity.y());
+  out->set_angular_velocity(m.angular_velocity);
+  out->set_awake(m.awake);
+}
+
 std::shared_ptr<const PublishedFrame> capture_frame(const World& world, uint64_t world_id,
                                                     uint64_t epoch, uint64_t seq) {
   auto frame = std::make_shared<PublishedFrame>();
@@ -69,13 +80,7 @@ std::shared_ptr<const PublishedFrame> capture_frame(const World& world, uint64_t
   for (BodyId id : ids) {
     Result<BodyState> s = world.body_state(id);
     if (!s.ok()) continue;  // cannot happen for a live id; skip rather than abort
-    BodyMotion m;
-    m.id = id;
-    m.position = s->transform.p;
-    m.angle = s->transform.q.angle();
-    m.linear_velocity = s->linear_velocity;
-    m.angular_velocity = s->angular_velocity;
-    m.awake = s->awake;
+    const BodyMotion m = motion_of(id, *s);
     if (m.awake) ++frame->awake_body_count;
     frame->bodies.push_back(m);
   }

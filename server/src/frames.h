@@ -56,6 +56,9 @@ struct PublishedFrame {
   std::shared_ptr<FrameMemo> memo = std::make_shared<FrameMemo>();
 };
 
+BodyMotion motion_of(BodyId id, const BodyState& state);
+void motion_to_proto(const BodyMotion& m, v1::BodyFrame* out);
+
 std::shared_ptr<const PublishedFrame> capture_frame(const World& world, uint64_t world_id,
                                                     uint64_t epoch, uint64_t seq = 0);
 

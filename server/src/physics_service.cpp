@@ -1,5 +1,6 @@
 #include "physics_service.h"
 
+#include <algorithm>
 #include <condition_variable>
 #include <deque>
 #include <memory>
@@ -15,6 +16,7 @@
 #include "fulcrum/state.h"
 #include "replay_download.h"
 #include "scene_convert.h"
+#include "snapshot_convert.h"
 #include "stats.h"
 
 namespace fulcrum::server {
@@ -47,6 +49,9 @@ grpc::Status to_grpc_status(const Status& status) {
 
 namespace {
 class FrameStream;
+
+// The pieces DownloadSnapshot sends and RestoreSnapshotStream takes, as replays are sent.
+constexpr size_t kSnapshotChunkBytes = 64 * 1024;
 }  // namespace
 
 // One thread that starts the writes of frames offered to idle readers, so that the thread
@@ -464,13 +469,19 @@ grpc::Status PhysicsService::RestoreSnapshot(grpc::ServerContext* context,
   if (!request->has_snapshot()) {
     return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "snapshot: required");
   }
+  return restore(request->world_id(), request->name(), request->snapshot(), reply);
+}
+
+grpc::Status PhysicsService::restore(uint64_t world_id, const std::string& name,
+                                     const v1::SnapshotFile& file,
+                                     v1::RestoreSnapshotReply* reply) {
   std::shared_ptr<Session> target;
-  if (request->world_id() != 0) {
-    auto found = registry_->find(request->world_id());
+  if (world_id != 0) {
+    auto found = registry_->find(world_id);
     if (!found.ok()) return to_grpc_status(found.status());
     target = *found;
   }
-  Result<WorldSnapshot> records = decode_snapshot(request->snapshot(), registry_->limits());
+  Result<WorldSnapshot> records = decode_snapshot(file, registry_->limits());
   if (!records.ok()) return to_grpc_status(records.status());
   if (target) return to_grpc_status(target->restore(*records, reply));
 
@@ -478,8 +489,7 @@ grpc::Status PhysicsService::RestoreSnapshot(grpc::ServerContext* context,
   World world;
   Status restored = world.restore(*records);
   if (!restored.ok()) return to_grpc_status(restored);  // "snapshot: ..." already
-  auto created =
-      registry_->create(request->name().empty() ? "fork" : request->name(), std::move(world));
+  auto created = registry_->create(name.empty() ? "fork" : name, std::move(world));
   if (!created.ok()) return to_grpc_status(created.status());
   v1::WorldInfo info;
   (*created)->summary(&info);
@@ -565,6 +575,169 @@ grpc::Status PhysicsService::StopRecording(grpc::ServerContext* context,
   auto session = registry_->find(request->world_id());
   if (!session.ok()) return to_grpc_status(session.status());
   return to_grpc_status((*session)->stop_recording(reply));
+}
+
+// --- Streams that step or carry snapshots -----------------------------------------------------
+
+grpc::Status PhysicsService::StepTrajectory(grpc::ServerContext* context,
+                                            const v1::StepTrajectoryRequest* request,
+                                            grpc::ServerWriter<v1::TrajectoryChunk>* writer) {
+  FULCRUM_ADMIT_CALL(context);
+  auto session = registry_->find(request->world_id());
+  if (!session.ok()) return to_grpc_status(session.status());
+  // A part gathers about 256 KiB of samples (at most half a message) or runs for 20 ms,
+  // whichever comes first, so that a reader sees progress and other calls get the world
+  // between parts.
+  const size_t chunk_bytes =
+      std::min<size_t>(256 * 1024, registry_->limits().max_message_bytes / 2);
+  constexpr auto kPartTime = std::chrono::milliseconds(20);
+  Session::TrajectoryProgress progress;
+  const std::function<Status()> go_on = keep_going(context);
+  v1::TrajectoryChunk chunk;
+  for (;;) {
+    Status status =
+        (*session)->step_trajectory(*request, chunk_bytes, kPartTime, go_on, &progress, &chunk);
+    // What a part ran is sent even when it stopped part way: nothing stepped is lost.
+    if ((chunk.samples_size() > 0 || chunk.has_done()) && !writer->Write(chunk)) {
+      status = Status(StatusCode::kCancelled, "the trajectory's reader went away after " +
+                                                  std::to_string(progress.done) + " of " +
+                                                  std::to_string(progress.total) + " ticks");
+    }
+    if (!status.ok()) {
+      if (progress.started) {
+        context->AddTrailingMetadata("fulcrum-tick", std::to_string(progress.reply.tick()));
+        context->AddTrailingMetadata("fulcrum-state-hash",
+                                     World::hash_text(progress.reply.state_hash()));
+      }
+      return to_grpc_status(status);
+    }
+    if (progress.finished()) return grpc::Status::OK;
+    // Between parts, as between ticks: a cancelled call or a server past its grace stops here.
+    if (Status stop = go_on(); !stop.ok()) {
+      context->AddTrailingMetadata("fulcrum-tick", std::to_string(progress.reply.tick()));
+      context->AddTrailingMetadata("fulcrum-state-hash",
+                                   World::hash_text(progress.reply.state_hash()));
+      return to_grpc_status(
+          Status(stop.code(), "ticks: stopped after " + std::to_string(progress.done) + " of " +
+                                  std::to_string(progress.total) + " ticks: " + stop.message()));
+    }
+  }
+}
+
+grpc::Status PhysicsService::DownloadSnapshot(grpc::ServerContext* context,
+                                              const v1::GetSnapshotRequest* request,
+                                              grpc::ServerWriter<v1::SnapshotChunk>* writer) {
+  FULCRUM_ADMIT_CALL(context);
+  auto session = registry_->find(request->world_id());
+  if (!session.ok()) return to_grpc_status(session.status());
+  v1::GetSnapshotReply taken;
+  (*session)->snapshot(&taken);
+  const std::string bytes = taken.snapshot().SerializeAsString();
+  v1::SnapshotChunk chunk;
+  size_t sent = 0;
+  do {
+    const size_t n = std::min(kSnapshotChunkBytes, bytes.size() - sent);
+    chunk.Clear();
+    if (sent == 0) {
+      chunk.set_tick(taken.tick());
+      chunk.set_state_hash(taken.state_hash());
+      chunk.set_total_size(bytes.size());
+    }
+    chunk.set_offset(sent);
+    chunk.set_data(bytes.substr(sent, n));
+    sent += n;
+    if (sent == bytes.size()) {
+      chunk.set_last(true);
+      chunk.set_checksum(fnv1a64(bytes));
+    }
+    if (!writer->Write(chunk)) {
+      return grpc::Status(grpc::StatusCode::CANCELLED, "the download was broken off");
+    }
+  } while (sent < bytes.size());
+  return grpc::Status::OK;
+}
+
+grpc::Status PhysicsService::RestoreSnapshotStream(
+    grpc::ServerContext* context, grpc::ServerReader<v1::RestoreSnapshotChunk>* reader,
+    v1::RestoreSnapshotReply* reply) {
+  FULCRUM_ADMIT_CALL(context);
+  const int64_t max_bytes = registry_->limits().max_snapshot_bytes;
+  auto refuse = [](grpc::StatusCode code, std::string message) {
+    return grpc::Status(code, message + "; nothing was restored");
+  };
+  v1::RestoreSnapshotChunk message;
+  uint64_t world_id = 0;
+  std::string name;
+  std::string bytes;
+  uint64_t total = 0;
+  bool last = false;
+  uint64_t checksum = 0;
+  for (int64_t i = 0; reader->Read(&message); ++i) {
+    const std::string field = "chunks[" + std::to_string(i) + "]";
+    if (last) {
+      return refuse(grpc::StatusCode::INVALID_ARGUMENT, field + ": arrived after the last chunk");
+    }
+    if (!message.has_chunk()) {
+      return refuse(grpc::StatusCode::INVALID_ARGUMENT, field + ".chunk: required");
+    }
+    const v1::SnapshotChunk& chunk = message.chunk();
+    if (i == 0) {
+      world_id = message.world_id();
+      name = message.name();
+      total = chunk.total_size();
+      if (total == 0) {
+        return refuse(grpc::StatusCode::INVALID_ARGUMENT,
+                      field + ".chunk.total_size: required in the first chunk (got 0)");
+      }
+      if (total > static_cast<uint64_t>(max_bytes)) {
+        return refuse(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                      field + ".chunk.total_size: " + std::to_string(total) +
+                          " bytes; this server takes at most " + std::to_string(max_bytes) +
+                          " (--max-snapshot-bytes)");
+      }
+      bytes.reserve(total);
+    } else if (message.world_id() != 0 || !message.name().empty() || chunk.total_size() != 0) {
+      return refuse(grpc::StatusCode::INVALID_ARGUMENT,
+                    field + ": world_id, name and total_size belong in the first chunk only");
+    }
+    if (chunk.offset() != bytes.size()) {
+      return refuse(grpc::StatusCode::INVALID_ARGUMENT,
+                    field + ".chunk.offset: expected " + std::to_string(bytes.size()) +
+                        " (the bytes received so far), got " + std::to_string(chunk.offset()));
+    }
+    if (chunk.data().size() > kSnapshotChunkBytes) {
+      return refuse(grpc::StatusCode::INVALID_ARGUMENT,
+                    field + ".chunk.data: " + std::to_string(chunk.data().size()) +
+                        " bytes; at most " + std::to_string(kSnapshotChunkBytes) + " per chunk");
+    }
+    if (bytes.size() + chunk.data().size() > total) {
+      return refuse(grpc::StatusCode::INVALID_ARGUMENT,
+                    field + ".chunk.data: runs past total_size " + std::to_string(total));
+    }
+    bytes += chunk.data();
+    last = chunk.last();
+    checksum = chunk.checksum();
+  }
+  if (context->IsCancelled()) {
+    return grpc::Status(grpc::StatusCode::CANCELLED, "the upload was broken off");
+  }
+  if (bytes.empty() && !last) {
+    return refuse(grpc::StatusCode::INVALID_ARGUMENT, "chunks: none arrived");
+  }
+  if (!last || bytes.size() != total) {
+    return refuse(grpc::StatusCode::INVALID_ARGUMENT,
+                  "chunks: the stream ended after " + std::to_string(bytes.size()) + " of " +
+                      std::to_string(total) + " bytes without a chunk marked last");
+  }
+  if (fnv1a64(bytes) != checksum) {
+    return refuse(grpc::StatusCode::DATA_LOSS,
+                  "chunks: the last chunk's checksum does not match the bytes received");
+  }
+  v1::SnapshotFile file;
+  if (!file.ParseFromString(bytes)) {
+    return refuse(grpc::StatusCode::DATA_LOSS, "snapshot: the bytes are not a SnapshotFile");
+  }
+  return restore(world_id, name, file, reply);
 }
 
 namespace {

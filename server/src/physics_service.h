@@ -68,6 +68,18 @@ class PhysicsService final
   grpc::ServerWriteReactor<v1::ReplayChunk>* DownloadReplay(
       grpc::CallbackServerContext* context, const v1::DownloadReplayRequest* request) override;
 
+  // A Step that streams samples of the bodies named, in parts, each sent before the next is
+  // stepped (flow control holds the stepping, never the world: session.h).
+  grpc::Status StepTrajectory(grpc::ServerContext* context,
+                              const v1::StepTrajectoryRequest* request,
+                              grpc::ServerWriter<v1::TrajectoryChunk>* writer) override;
+  // Snapshots in chunks, both ways.
+  grpc::Status DownloadSnapshot(grpc::ServerContext* context, const v1::GetSnapshotRequest* request,
+                                grpc::ServerWriter<v1::SnapshotChunk>* writer) override;
+  grpc::Status RestoreSnapshotStream(grpc::ServerContext* context,
+                                     grpc::ServerReader<v1::RestoreSnapshotChunk>* reader,
+                                     v1::RestoreSnapshotReply* reply) override;
+
   // New streams are refused and open ones end with UNAVAILABLE.
   void begin_shutdown();
   // The grace period is over: calls still running stop at their next check (between ticks,
@@ -78,6 +90,10 @@ class PhysicsService final
   grpc::Status check_token(const grpc::ServerContextBase& context) const;
   // What long calls ask between ticks and edits: whether to go on.
   std::function<Status()> keep_going(const grpc::ServerContext* context) const;
+  // RestoreSnapshot and RestoreSnapshotStream once the snapshot is whole: rollback into
+  // `world_id`, or a fork named `name` when it is 0.
+  grpc::Status restore(uint64_t world_id, const std::string& name, const v1::SnapshotFile& file,
+                       v1::RestoreSnapshotReply* reply);
   // The limits the registry's worlds are built under.
   WorkLimits work_limits(const grpc::ServerContext* context) const;
 

@@ -19,8 +19,10 @@ Result<std::unique_ptr<Server>> Server::start(const ServerOptions& options) {
   if (options.listen.empty() || options.listen.rfind(':') == std::string::npos) {
     return invalid_argument("listen: expected HOST:PORT (got '" + options.listen + "')");
   }
-  if (options.max_message_bytes <= 0) {
-    return invalid_argument("max_message_bytes: must be > 0");
+  if (options.max_message_bytes < ServerOptions::kMinMessageBytes) {
+    return invalid_argument("max_message_bytes: must be at least " +
+                            std::to_string(ServerOptions::kMinMessageBytes) + " (got " +
+                            std::to_string(options.max_message_bytes) + ")");
   }
   if (options.tls_cert_pem.empty() != options.tls_key_pem.empty()) {
     return invalid_argument(options.tls_cert_pem.empty()
@@ -46,7 +48,9 @@ Result<std::unique_ptr<Server>> Server::start(const ServerOptions& options) {
   }
 
   std::unique_ptr<Server> server(new Server());
-  server->registry_ = std::make_unique<Registry>(options.limits);
+  Limits limits = options.limits;
+  limits.max_message_bytes = options.max_message_bytes;
+  server->registry_ = std::make_unique<Registry>(limits);
   const int threads = options.worker_threads > 0
                           ? options.worker_threads
                           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));

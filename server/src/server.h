@@ -26,10 +26,12 @@ struct ServerOptions {
   std::string listen = "127.0.0.1:50051";  // host:port; port 0 picks a free one
   Limits limits;
   int max_message_bytes = 64 << 20;  // largest request or reply, bytes
-  std::string token;                 // bearer token; empty: no authentication
-  bool reflection = true;            // register the server reflection service
-  int worker_threads = 0;            // real-time pool threads; 0: the hardware's concurrency
-  std::string replay_dir;            // where StartRecording writes; empty: recording is off
+  // At least room for one chunk of a replay or snapshot download (64 KiB) and its framing.
+  static constexpr int kMinMessageBytes = 128 << 10;
+  std::string token;       // bearer token; empty: no authentication
+  bool reflection = true;  // register the server reflection service
+  int worker_threads = 0;  // real-time pool threads; 0: the hardware's concurrency
+  std::string replay_dir;  // where StartRecording writes; empty: recording is off
   // HTTP/2 keepalive: the server pings each connection this often and drops it when a ping is
   // not answered within the timeout, so the streams of a client that vanished without closing
   // (a dropped network, a frozen host) end within about the sum of the two.

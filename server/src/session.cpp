@@ -16,21 +16,6 @@ namespace fulcrum::server {
 
 namespace {
 
-Status failed_precondition(std::string message) {
-  return Status(StatusCode::kFailedPrecondition, std::move(message));
-}
-Status resource_exhausted(std::string message) {
-  return Status(StatusCode::kResourceExhausted, std::move(message));
-}
-
-Status check_expected_tick(std::optional<int64_t> expected, int64_t tick) {
-  if (expected && *expected != tick) {
-    return failed_precondition("expected_tick: the world is at tick " + std::to_string(tick) +
-                               ", not " + std::to_string(*expected));
-  }
-  return {};
-}
-
 void handle_to_proto(int32_t index, uint32_t generation, v1::Handle* out) {
   out->set_index(index);
   out->set_generation(generation);
@@ -56,6 +41,14 @@ Status check_vec(const v1::Vec2& v, const std::string& field) {
 }
 
 }  // namespace
+
+Status check_expected_tick(std::optional<int64_t> expected, int64_t tick) {
+  if (expected && *expected != tick) {
+    return failed_precondition("expected_tick: the world is at tick " + std::to_string(tick) +
+                               ", not " + std::to_string(*expected));
+  }
+  return {};
+}
 
 Session::Session(uint64_t id, std::string name, World world, const Limits& limits)
     : id_(id), name_(std::move(name)), limits_(limits), world_(std::move(world)) {

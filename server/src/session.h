@@ -5,6 +5,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -42,6 +43,10 @@ struct Limits {
   int64_t max_reader_stall_ms = 10000;
   // Threads each world's step may use (World::set_threads): the same results at any count.
   int world_threads = 1;
+  // ServerOptions::max_message_bytes, set by the server: a trajectory sample must fit one.
+  int max_message_bytes = 64 << 20;
+  // Largest snapshot RestoreSnapshotStream accepts, bytes (it is held whole while it checks).
+  int64_t max_snapshot_bytes = int64_t{1} << 30;
 };
 
 // A reader of frames (the StreamFrames reactor). offer() must not block: it is called by the
@@ -78,6 +83,26 @@ class Session : public std::enable_shared_from_this<Session> {
   void snapshot(v1::GetSnapshotReply* reply);
   // Every body with its shapes and every joint (waits while the world is being stepped).
   void describe(v1::DescribeWorldReply* reply);
+
+  // StepTrajectory (trajectory.cpp): a Step in parts, so that the caller can send each part's
+  // samples with the world free. The first part checks the request; each part holds the world
+  // until it has gathered about `chunk_bytes` of samples, run about `part_time` of ticks, or
+  // run them all, and fills `chunk` (plus chunk->done after the last tick). `progress` carries
+  // the call from part to part. On an error the chunk still holds the samples of the ticks
+  // that ran, and progress->reply says where the world is.
+  struct TrajectoryProgress {
+    bool started = false;                            // the request has been checked
+    uint32_t total = 0;                              // ticks to run
+    uint32_t every = 1;                              // a sample every this many ticks
+    uint32_t done = 0;                               // ticks run so far
+    std::vector<BodyId> bodies;                      // sampled, in the request's order
+    std::chrono::steady_clock::duration stepping{};  // wall time of the ticks so far
+    v1::StepReply reply;                             // the world after the last tick run
+    bool finished() const { return started && done == total; }
+  };
+  Status step_trajectory(const v1::StepTrajectoryRequest& request, size_t chunk_bytes,
+                         std::chrono::steady_clock::duration part_time, const KeepGoing& keep_going,
+                         TrajectoryProgress* progress, v1::TrajectoryChunk* chunk);
   // Rollback: replaces the world with the snapshot (checked whole; unchanged on error).
   Status restore(const WorldSnapshot& records, v1::RestoreSnapshotReply* reply);
   Status query(const v1::QueryRequest& request, v1::QueryReply* reply);
@@ -180,6 +205,16 @@ class Session : public std::enable_shared_from_this<Session> {
   std::vector<Watcher> watchers_;
   std::atomic<bool> any_need_first_{false};
 };
+
+inline Status failed_precondition(std::string message) {
+  return Status(StatusCode::kFailedPrecondition, std::move(message));
+}
+inline Status resource_exhausted(std::string message) {
+  return Status(StatusCode::kResourceExhausted, std::move(message));
+}
+
+// FAILED_PRECONDITION naming the world's tick when `expected` is set and differs from it.
+Status check_expected_tick(std::optional<int64_t> expected, int64_t tick);
 
 // Unwraps and checks a snapshot file and the body limit, before any world is touched.
 Result<WorldSnapshot> decode_snapshot(const v1::SnapshotFile& file, const Limits& limits);

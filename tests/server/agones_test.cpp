@@ -96,7 +96,14 @@ TEST(AgonesContract, ReadyHealthLabelsAndShutdownInOrder) {
   ASSERT_TRUE(client->create_world_json(pyramid_json()).ok());
   ASSERT_TRUE(client->create_world_json(pyramid_json()).ok());
   ASSERT_TRUE(eventually([&] { return sidecar.count("SetLabel worlds=2") == 1; }, 5s));
-  EXPECT_EQ(sidecar.count("SetLabel worlds=1"), 0) << "two worlds within one period: one label";
+  // The count is sampled once per health period and sent only when it changed: whether the two
+  // creates fell into one period or two (a slow sanitizer build), no label repeats its
+  // predecessor, and worlds=0 and worlds=2 are each sent once.
+  std::vector<std::string> labels;
+  for (const std::string& c : sidecar.calls())
+    if (c.rfind("SetLabel", 0) == 0) labels.push_back(c);
+  for (size_t i = 1; i < labels.size(); ++i) EXPECT_NE(labels[i], labels[i - 1]) << i;
+  EXPECT_LE(labels.size(), 3u);
 
   // SIGTERM: Shutdown is called once, and the server still stops gracefully (exit 0).
   EXPECT_EQ(server.terminate(), 0) << server.log();

@@ -66,6 +66,7 @@ grep -q "batch.edits: must not be empty" "$WORK/err.txt" || fail "empty: $(cat "
 "$F" worlds --server "$ADDR" | grep -q "^1 .*pyramid .* 90 .* 211 .*$remote_hash" ||
   fail "worlds does not list world 1 at tick 90"
 
+
 # Queries: the top box of the 20-row pyramid is hit by a ray straight down; a negative
 # coordinate is a number, not a flag; --mask 0 sees nothing; bad numbers are usage errors.
 out="$("$F" query 1 ray 0 50 0 -10 --server "$ADDR")"
@@ -111,6 +112,25 @@ full_bytes="$(per_frame "$WORK/full.out")"
 quant_bytes="$(per_frame "$WORK/q.out")"
 [ -n "$full_bytes" ] && [ -n "$quant_bytes" ] && [ $((2 * quant_bytes)) -lt "$full_bytes" ] ||
   fail "quantized $quant_bytes B/frame, full $full_bytes B/frame"
+
+# A lossless trajectory to CSV from a new world: ticks 5 and 10 of bodies 3 and 1, in that
+# order, and the hash of tick 10 equal to a local run's.
+"$F" create --server "$ADDR" --scene "$SCENES/pyramid.json" >/dev/null
+out="$("$F" step 2 10 --trajectory "$WORK/t.csv" --every 5 --bodies 3,1:1 --server "$ADDR")"
+echo "$out"
+[[ "$out" == *"2 samples written to $WORK/t.csv"* ]] || fail "trajectory: $out"
+[ "$(wc -l <"$WORK/t.csv")" -eq 5 ] || fail "trajectory rows: $(cat "$WORK/t.csv")"
+head -1 "$WORK/t.csv" | grep -q "^tick,state_hash,body_index,body_generation,x,y,angle," ||
+  fail "trajectory header: $(head -1 "$WORK/t.csv")"
+[ "$(cut -d, -f1,3 "$WORK/t.csv" | tail -4 | tr '\n' ' ')" = "5,3 5,1 10,3 10,1 " ] ||
+  fail "trajectory order: $(cat "$WORK/t.csv")"
+local10="$("$F" sim --scene "$SCENES/pyramid.json" --ticks 10 | sed -n 's/^state hash: *//p')"
+[ "$(tail -1 "$WORK/t.csv" | cut -d, -f2)" = "$local10" ] ||
+  fail "trajectory hash $(tail -1 "$WORK/t.csv" | cut -d, -f2), local $local10"
+if "$F" step 2 1 --trajectory - --bodies 3,x --server "$ADDR" 2>"$WORK/err.txt"; then
+  fail "a bad --bodies list was accepted"
+fi
+grep -q -- "--bodies: 'x'" "$WORK/err.txt" || fail "bad bodies: $(cat "$WORK/err.txt")"
 
 # SIGTERM with a watcher attached: the stream ends, the server exits 0.
 "$F" watch 1 --server "$ADDR" >"$WORK/watch.out" 2>"$WORK/watch.err" &

@@ -319,14 +319,14 @@ TEST(FaultTest, SigtermDoesNotWaitForAnIdleClient) {
 // A request over --max-message-bytes is refused with RESOURCE_EXHAUSTED before any work, and
 // the world is unchanged.
 TEST(FaultTest, OversizedRequestsAreRefused) {
-  ServerProcess server({"--max-message-bytes=65536"});  // the --flag=value spelling
+  ServerProcess server({"--max-message-bytes=131072"});  // the --flag=value spelling
   ASSERT_FALSE(server.address().empty()) << server.log();
   auto c = connect(server);
   Result<client::WorldSummary> world = c->create_world_json(pyramid_json());
   ASSERT_TRUE(world.ok());
   v1::EditBatch big;
-  for (int i = 0; i < 4000; ++i) big.MergeFrom(push(1 + i % 200, 1.0));  // ~100 kB
-  ASSERT_GT(big.ByteSizeLong(), 65536u);
+  for (int i = 0; i < 8000; ++i) big.MergeFrom(push(1 + i % 200, 1.0));  // ~200 kB
+  ASSERT_GT(big.ByteSizeLong(), 131072u);
   Result<client::EditResult> refused = c->apply_edits(world->id, big);
   EXPECT_EQ(refused.status().code(), StatusCode::kResourceExhausted) << refused.status().message();
   Result<client::WorldSummary> after = c->get_world(world->id);

@@ -156,6 +156,21 @@ struct Frame {
   size_t message_bytes = 0;  // the frame's protobuf encoding as received (gRPC framing aside)
 };
 
+// StepTrajectory: a Step that streams every sample of the bodies named (service.proto).
+struct TrajectoryOptions {
+  uint32_t ticks = 1;
+  uint32_t every_ticks = 1;              // a sample after ticks k, 2k, 3k ... of the call
+  std::vector<BodyId> bodies;            // sampled in this order; empty: every live body
+  bool include_start = false;            // also a sample before the first tick
+  std::optional<int64_t> expected_tick;  // as for step()
+};
+
+struct TrajectorySample {
+  int64_t tick = 0;
+  uint64_t state_hash = 0;
+  std::vector<BodyFrame> bodies;  // exact states, in the order the options name the bodies
+};
+
 enum class FrameBodies { kAll, kChanged, kNone };
 
 struct SubscribeOptions {
@@ -211,6 +226,16 @@ class Client {
                                   std::optional<int64_t> expected_tick = {},
                                   bool include_snapshot = false) = 0;
 
+  // Steps `options.ticks` ticks and calls `on_sample` for every sample, in tick order, on the
+  // calling thread; the server steps no further ahead than the connection's buffers while
+  // on_sample runs, so nothing is skipped. A non-OK status from on_sample cancels the call
+  // (the world keeps the ticks it ran) and is returned.
+  virtual Result<StepResult> step_trajectory(
+      uint64_t world, const TrajectoryOptions& options,
+      const std::function<Status(const TrajectorySample&)>& on_sample) = 0;
+
+  // Snapshots travel in chunks (DownloadSnapshot, RestoreSnapshotStream): any size the server
+  // allows, whatever the message limits.
   virtual Result<SnapshotResult> get_snapshot(uint64_t world) = 0;
   // Rollback into `world`, or, with world 0, a new world (fork) named `name`.
   virtual Result<RestoreResult> restore(uint64_t world, std::string_view snapshot_bytes,

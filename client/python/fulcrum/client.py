@@ -7,6 +7,7 @@ import grpc
 from .errors import FulcrumError, invalid_argument
 from .replays import Replay, verify
 from .scenes import to_scene
+from . import snapshots
 from .snapshots import fnv1a64
 from .v1 import runtime_pb2, service_pb2, service_pb2_grpc, stats_pb2
 from .world import World, _snapshot_file
@@ -163,8 +164,7 @@ class Client:
 
     def fork(self, snapshot, name="fork"):
         """A new world from a Snapshot (or snapshot file bytes)."""
-        reply = self._call("RestoreSnapshot", service_pb2.RestoreSnapshotRequest(
-            world_id=0, snapshot=_snapshot_file(snapshot), name=name or ""))
+        reply = snapshots.upload(self, 0, _snapshot_file(snapshot), name or "")
         return World(self, reply.world_id)
 
     def stats(self):

@@ -7,7 +7,7 @@ writes and `fulcrum snapshot restore` reads.
 import grpc
 
 from .errors import FulcrumError, invalid_argument
-from .v1 import snapshot_pb2
+from .v1 import service_pb2, snapshot_pb2
 
 FORMAT = "fulcrum.snapshot"
 VERSION = 1
@@ -98,3 +98,67 @@ def decode_file(file, where="snapshot"):
     except Exception:
         raise _data_loss(f"{where}: payload does not parse") from None
     return snapshot
+
+
+# Snapshots travel in chunks (DownloadSnapshot, RestoreSnapshotStream), so that any world the
+# server holds fits, whatever the message limits.
+CHUNK_BYTES = 64 * 1024
+
+
+def download(client, world_id):
+    """The world's Snapshot, received in chunks. Offsets and sizes are checked here; the
+    envelope's own checksum when it is decoded or restored."""
+    parts, received = [], 0
+    tick = state_hash = total = None
+    last = False
+    try:
+        for chunk in client._stream("DownloadSnapshot",
+                                    service_pb2.GetSnapshotRequest(world_id=world_id),
+                                    timeout=client.timeout):
+            if total is None:
+                tick, state_hash, total = chunk.tick, chunk.state_hash, chunk.total_size
+            if chunk.offset != received:
+                raise _data_loss(f"snapshot: chunk at offset {chunk.offset}, expected {received}")
+            parts.append(chunk.data)
+            received += len(chunk.data)
+            last = last or chunk.last
+    except grpc.RpcError as error:
+        raise FulcrumError.from_rpc(error) from None
+    if not last or received != total:
+        raise _data_loss(f"snapshot: received {received} of {total} bytes")
+    file = snapshot_pb2.SnapshotFile()
+    try:
+        file.ParseFromString(b"".join(parts))
+    except Exception:
+        raise _data_loss("snapshot: the bytes received do not parse") from None
+    return Snapshot(file, tick, state_hash)
+
+
+def upload(client, world_id, file, name=""):
+    """RestoreSnapshotStream: the SnapshotFile in chunks into world `world_id` (rollback), or
+    into a new world named `name` when it is 0 (fork). Returns the RestoreSnapshotReply."""
+    data = file.SerializeToString()
+    checksum = fnv1a64(data)
+
+    def messages():
+        offset = 0
+        while True:
+            piece = data[offset:offset + CHUNK_BYTES]
+            chunk = service_pb2.SnapshotChunk(offset=offset, data=piece)
+            first = offset == 0
+            offset += len(piece)
+            if first:
+                chunk.total_size = len(data)
+            if offset >= len(data):
+                chunk.last = True
+                chunk.checksum = checksum
+            yield service_pb2.RestoreSnapshotChunk(
+                world_id=world_id if first else 0, name=name if first else "", chunk=chunk)
+            if chunk.last:
+                return
+
+    try:
+        return client._stub.RestoreSnapshotStream(messages(), timeout=client.timeout,
+                                                  metadata=client._metadata)
+    except grpc.RpcError as error:
+        raise FulcrumError.from_rpc(error) from None

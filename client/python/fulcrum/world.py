@@ -3,7 +3,9 @@
 from .edits import Batch, EditMethods, edit_result, message_of, request as edits_request
 from .errors import invalid_argument
 from .frames import FrameStream, frames_request
+from . import snapshots
 from .snapshots import Snapshot
+from .trajectories import step_trajectory
 from .types import Handle, RayHit, ShapeHit, StepResult, to_vec2, vec_tuple
 from .v1 import describe_pb2, edit_pb2, query_pb2, runtime_pb2, service_pb2
 
@@ -93,6 +95,16 @@ class World(EditMethods):
         return StepResult(reply.tick, reply.state_hash, reply.awake_body_count, reply.step_ms,
                           taken)
 
+    def trajectory(self, ticks, every=1, bodies=None, include_start=False, expected_tick=None,
+                   timeout=None):
+        """Steps `ticks` ticks and returns every `every`-th tick's state of `bodies` (Handles,
+        (index, generation) pairs or scene indices; default every live body) as a Trajectory
+        of numpy arrays, nothing skipped: the server steps only as fast as the samples are
+        taken. `include_start` adds the world before the first tick. `timeout` (s): none by
+        default."""
+        return step_trajectory(self, _ticks(ticks), every, bodies, include_start,
+                               expected_tick, timeout)
+
     # --- Edits --------------------------------------------------------------------------------
 
     def apply(self, batch, expected_tick=None):
@@ -146,14 +158,14 @@ class World(EditMethods):
     # --- Snapshots ------------------------------------------------------------------------------
 
     def snapshot(self):
-        """The whole world now, as a Snapshot (tick, state_hash, file)."""
-        reply = self.client._call("GetSnapshot", service_pb2.GetSnapshotRequest(world_id=self.id))
-        return Snapshot(reply.snapshot, reply.tick, reply.state_hash)
+        """The whole world now, as a Snapshot (tick, state_hash, file), received in chunks:
+        any size the server holds."""
+        return snapshots.download(self.client, self.id)
 
     def restore(self, snapshot):
-        """Rolls this world back (or forward) to `snapshot`; returns (tick, state_hash)."""
-        reply = self.client._call("RestoreSnapshot", service_pb2.RestoreSnapshotRequest(
-            world_id=self.id, snapshot=_snapshot_file(snapshot)))
+        """Rolls this world back (or forward) to `snapshot` (sent in chunks); returns
+        (tick, state_hash)."""
+        reply = snapshots.upload(self.client, self.id, _snapshot_file(snapshot))
         return reply.tick, reply.state_hash
 
     def fork(self, name="fork"):
