@@ -523,14 +523,6 @@ int run_view(const Invocation& inv) {
     return inv.usage_error("--replay plays a file locally: no --server or --world with it");
   }
 
-  // SIGINT and SIGTERM are taken by sigwait below; blocked before any thread starts, so that
-  // every thread (gRPC's, httplib's) inherits the mask.
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGTERM);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
-
   std::atomic<bool> stopping{false};
   httplib::Server http;
   // SO_REUSEADDR only (httplib's default adds SO_REUSEPORT: a second viewer would share the
@@ -548,12 +540,25 @@ int run_view(const Invocation& inv) {
     });
   }
 
-  std::unique_ptr<LiveView> live;
+  // A replay is re-stepped before the signals are blocked (no thread runs yet), so that Ctrl-C
+  // ends a long one at once.
   std::unique_ptr<ReplayPlayer> player;
   if (replay_path) {
     Result<std::unique_ptr<ReplayPlayer>> opened = ReplayPlayer::open(*replay_path);
     if (!opened.ok()) return inv.fail(opened.status().message());
     player = std::move(opened).value();
+  }
+
+  // SIGINT and SIGTERM are taken by sigwait below; blocked before any thread starts, so that
+  // every thread (gRPC's, httplib's) inherits the mask.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  std::unique_ptr<LiveView> live;
+  if (player) {
     install_replay(http, player.get());
   } else {
     int exit_code = kExitOk;
