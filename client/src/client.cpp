@@ -259,6 +259,15 @@ class GrpcClient final : public Client {
     return summary_from(reply);
   }
 
+  Result<v1::DescribeWorldReply> describe_world(uint64_t world) override {
+    v1::DescribeWorldRequest request;
+    request.set_world_id(world);
+    v1::DescribeWorldReply reply;
+    Status st = unary(&v1::Physics::Stub::DescribeWorld, request, &reply);
+    if (!st.ok()) return st;
+    return reply;
+  }
+
   Status delete_world(uint64_t world) override {
     v1::DeleteWorldRequest request;
     request.set_world_id(world);

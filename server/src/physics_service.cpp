@@ -377,6 +377,16 @@ grpc::Status PhysicsService::GetWorld(grpc::ServerContext* context,
   return grpc::Status::OK;
 }
 
+grpc::Status PhysicsService::DescribeWorld(grpc::ServerContext* context,
+                                           const v1::DescribeWorldRequest* request,
+                                           v1::DescribeWorldReply* reply) {
+  FULCRUM_ADMIT_CALL(context);
+  auto session = registry_->find(request->world_id());
+  if (!session.ok()) return to_grpc_status(session.status());
+  (*session)->describe(reply);
+  return grpc::Status::OK;
+}
+
 grpc::Status PhysicsService::DeleteWorld(grpc::ServerContext* context,
                                          const v1::DeleteWorldRequest* request,
                                          v1::DeleteWorldReply* reply) {

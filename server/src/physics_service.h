@@ -37,6 +37,8 @@ class PhysicsService final
                           v1::ListWorldsReply* reply) override;
   grpc::Status GetWorld(grpc::ServerContext* context, const v1::GetWorldRequest* request,
                         v1::WorldInfo* reply) override;
+  grpc::Status DescribeWorld(grpc::ServerContext* context, const v1::DescribeWorldRequest* request,
+                             v1::DescribeWorldReply* reply) override;
   grpc::Status DeleteWorld(grpc::ServerContext* context, const v1::DeleteWorldRequest* request,
                            v1::DeleteWorldReply* reply) override;
   grpc::Status ApplyEdits(grpc::ServerContext* context, const v1::ApplyEditsRequest* request,

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <utility>
 
+#include "describe_convert.h"
 #include "edit_convert.h"
 #include "fulcrum/scene.h"
 #include "scene_convert.h"
@@ -201,6 +202,12 @@ Status Session::step(uint32_t ticks, std::optional<int64_t> expected_tick, bool 
     }
   }
   return {};
+}
+
+void Session::describe(v1::DescribeWorldReply* reply) {
+  Hold hold(this);
+  describe_world_to_proto(world_, reply);
+  reply->set_world_id(id_);
 }
 
 void Session::snapshot(v1::GetSnapshotReply* reply) {

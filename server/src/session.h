@@ -82,6 +82,8 @@ class Session : public std::enable_shared_from_this<Session> {
   Status step(uint32_t ticks, std::optional<int64_t> expected_tick, bool include_snapshot,
               const KeepGoing& keep_going, v1::StepReply* reply);
   void snapshot(v1::GetSnapshotReply* reply);
+  // Every body with its shapes and every joint (waits while the world is being stepped).
+  void describe(v1::DescribeWorldReply* reply);
 
   // StepTrajectory (trajectory.cpp): a Step in parts, so that the caller can send each part's
   // samples with the world free. The first part checks the request; each part holds the world
