@@ -86,5 +86,6 @@ int run_query(const Invocation& inv);
 int run_stats(const Invocation& inv);
 int run_health(const Invocation& inv);
 int run_view(const Invocation& inv);
+int run_session(const Invocation& inv);
 
 }  // namespace fulcrum::cli

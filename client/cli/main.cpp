@@ -91,6 +91,21 @@ constexpr FlagSpec kQueryFlags[] = {
     {"all", "", "ray: every hit along the ray, not only the closest"},
     {"category", "BITS", "the query's category bits (default 1; decimal or 0x hex)"},
     {"mask", "BITS", "the query's mask bits (default all)"}};
+constexpr FlagSpec kSessionFlags[] = {
+    kServerFlag,
+    kTokenFileFlag,
+    kDeadlineFlag,
+    kTlsCaFlag,
+    kTlsNameFlag,
+    {"players", "N", "open: at most N players (default 8)"},
+    {"input-delay", "D", "open: inputs are for ticks at least D ahead (default 0)"},
+    {"seal", "RULE", "open: on-step (clock or Step, default) or all-inputs (turn by turn)"},
+    {"missing", "RULE", "open: a missing input is none (default) or repeat (the last one)"},
+    {"bodies", "I,J:G,...", "bot: the bodies the bot takes and pushes"},
+    {"name", "NAME", "bot: the player's name (default bot)"},
+    {"seed", "S", "bot: seeds its random impulses (default 1)"},
+    {"impulse", "N_S", "bot: the largest impulse per axis, N s (default 1)"},
+    {"ticks", "N", "bot, watch: stop after N confirmed ticks (default: when the stream ends)"}};
 constexpr FlagSpec kViewFlags[] = {
     kServerFlag,
     kTokenFileFlag,
@@ -189,6 +204,18 @@ constexpr Command kCommands[] = {
      "checks one service (fulcrum.v1.Physics); default: the whole server. No token needed.\n"
      "The container image's HEALTHCHECK runs it.",
      kHealthFlags, 0, run_health},
+    {"session", "open a world as a multiplayer session, join it as a bot, or watch it",
+     "open WORLD [--players N] [--input-delay D] [--seal on-step|all-inputs]\n"
+     "                 [--missing none|repeat]\n"
+     "       fulcrum session bot WORLD --bodies I,J [--ticks N] [--seed S] [--impulse N_S]\n"
+     "       fulcrum session watch WORLD [--ticks N]",
+     "A bot joins as a player with the bodies named, sends seeded random impulses on them one\n"
+     "input per tick, and steps its own copy of the world with every confirmed tick, checking\n"
+     "the server's state hash at each (lockstep); `watch` does the same without playing. Both\n"
+     "print a line every 60 ticks and exit 1 at the first hash that differs. With --seal\n"
+     "on-step the world moves by `fulcrum run` or `fulcrum step`; with all-inputs it steps as\n"
+     "soon as every player's input for its next tick is in.",
+     kSessionFlags, 2, run_session},
     {"view", "draw a world live in the browser, or play a replay file with a timeline",
      "[--listen HOST:PORT] [--world ID]\n"
      "       fulcrum view --replay FILE [--listen HOST:PORT]",

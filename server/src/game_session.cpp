@@ -276,18 +276,30 @@ Status GameSession::check_input(const Player& player, const v1::EditBatch& input
   return {};
 }
 
+Status GameSession::check_player(uint32_t player_id, const std::string& secret) const {
+  auto found = players_.find(player_id);
+  if (found == players_.end()) {
+    return not_found("player_id: no player " + std::to_string(player_id) + " in this session");
+  }
+  if (!same_secret(secret, found->second.secret)) {
+    return Status(StatusCode::kPermissionDenied,
+                  "player_secret: not player " + std::to_string(player_id) + "'s secret");
+  }
+  return {};
+}
+
+void GameSession::presence(uint32_t player_id, int change) {
+  auto found = players_.find(player_id);
+  if (found == players_.end()) return;
+  Player& p = found->second;
+  p.watches += change;
+  p.left = p.watches <= 0;
+}
+
 Status GameSession::send_input(const v1::SendInputRequest& request, const World& world,
                                v1::SendInputReply* reply) {
-  auto found = players_.find(request.player_id());
-  if (found == players_.end()) {
-    return not_found("player_id: no player " + std::to_string(request.player_id()) +
-                     " in this session");
-  }
-  const Player& player = found->second;
-  if (!same_secret(request.player_secret(), player.secret)) {
-    return Status(StatusCode::kPermissionDenied,
-                  "player_secret: not player " + std::to_string(player.id) + "'s secret");
-  }
+  FULCRUM_RETURN_IF_ERROR(check_player(request.player_id(), request.player_secret()));
+  const Player& player = players_.at(request.player_id());
   // Turn by turn the world waits for its inputs, so every tick not sealed yet is open; on the
   // clock, an input must leave its tick input_delay ticks to reach the other clients.
   const int64_t earliest =
@@ -320,11 +332,14 @@ Status GameSession::send_input(const v1::SendInputRequest& request, const World&
 bool GameSession::complete(int64_t tick) const {
   if (players_.empty()) return false;
   auto at = inputs_.find(tick);
+  bool anyone = false;
   for (const auto& [id, player] : players_) {
+    if (player.left) continue;
+    anyone = true;
     if (tick < player.first_input_tick) continue;
     if (at == inputs_.end() || !at->second.contains(id)) return false;
   }
-  return true;
+  return anyone;
 }
 
 GameSession::Sealed GameSession::seal(int64_t tick) {
@@ -450,9 +465,14 @@ Status Session::send_input(const v1::SendInputRequest& request, v1::SendInputRep
   Hold hold(this);
   if (!game_) return not_a_session(id_);
   FULCRUM_RETURN_IF_ERROR(game_->send_input(request, world_, reply));
+  step_complete_ticks_locked();
+  return {};
+}
+
+void Session::step_complete_ticks_locked() {
   if (game_->options().seal() != v1::SEAL_RULE_ALL_INPUTS ||
       clock_.mode == v1::RUN_MODE_REAL_TIME) {
-    return {};
+    return;
   }
   // Turn by turn: every tick whose inputs are all in is sealed and stepped now.
   const auto start = std::chrono::steady_clock::now();
@@ -468,24 +488,36 @@ Status Session::send_input(const v1::SendInputRequest& request, v1::SendInputRep
     counters().add_steps(ran, std::chrono::steady_clock::now() - start);
     refresh_summary_locked(world_.state_hash());
   }
-  return {};
 }
 
-Status Session::watch_session(std::shared_ptr<SessionWatcher> watcher) {
+Status Session::watch_session(std::shared_ptr<SessionWatcher> watcher, uint32_t player_id,
+                              const std::string& secret) {
   Hold hold(this);
   if (!game_) return not_a_session(id_);
+  if (player_id != 0 || !secret.empty()) {
+    FULCRUM_RETURN_IF_ERROR(game_->check_player(player_id, secret));
+    game_->presence(player_id, +1);
+  }
   watcher->offer(game_->start_event(world_));
   std::lock_guard<std::mutex> wl(session_watchers_mu_);
   session_watchers_.push_back(std::move(watcher));
   return {};
 }
 
-void Session::unwatch_session(const SessionWatcher* watcher) {
-  std::lock_guard<std::mutex> wl(session_watchers_mu_);
-  std::erase_if(session_watchers_, [&](const std::weak_ptr<SessionWatcher>& w) {
-    auto held = w.lock();
-    return !held || held.get() == watcher;
-  });
+void Session::unwatch_session(const SessionWatcher* watcher, uint32_t player_id) {
+  {
+    std::lock_guard<std::mutex> wl(session_watchers_mu_);
+    std::erase_if(session_watchers_, [&](const std::weak_ptr<SessionWatcher>& w) {
+      auto held = w.lock();
+      return !held || held.get() == watcher;
+    });
+  }
+  if (player_id == 0) return;
+  Hold hold(this);
+  if (!game_) return;
+  game_->presence(player_id, -1);
+  log_event("player_watch_ended", {{"world", id_}, {"player", player_id}});
+  step_complete_ticks_locked();  // a turn may have waited only for this player
 }
 
 GameSession::Sealed Session::seal_inputs_locked() {

@@ -76,6 +76,11 @@ class GameSession {
 
   int players() const { return static_cast<int>(players_.size()); }
 
+  // A watch as `player_id` opened (+1) or ended (-1). Opening checks the secret
+  // (PERMISSION_DENIED); a player whose last watch ended has left (see session.proto).
+  Status check_player(uint32_t player_id, const std::string& secret) const;
+  void presence(uint32_t player_id, int change);
+
  private:
   struct Player {
     uint32_t id = 0;
@@ -84,6 +89,8 @@ class GameSession {
     std::vector<BodyId> bodies;
     std::vector<JointId> joints;
     int64_t first_input_tick = 0;  // the world's tick at join + input_delay
+    int watches = 0;               // WatchSession streams open as this player
+    bool left = false;             // its last watch ended
     v1::EditBatch last_input;      // the last confirmed input (MISSING_INPUT_REPEAT_LAST)
   };
   void player_to_proto(const Player& p, v1::PlayerInfo* out) const;

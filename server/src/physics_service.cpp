@@ -780,13 +780,18 @@ class SessionStream final : public grpc::ServerWriteReactor<v1::SessionEvent>,
                             public SessionWatcher,
                             public std::enable_shared_from_this<SessionStream> {
  public:
-  explicit SessionStream(std::shared_ptr<Session> session) : session_(std::move(session)) {}
+  SessionStream(std::shared_ptr<Session> session, uint32_t player_id)
+      : session_(std::move(session)), player_id_(player_id) {}
 
-  static SessionStream* start(std::shared_ptr<Session> session) {
-    auto stream = std::make_shared<SessionStream>(session);
+  static SessionStream* start(std::shared_ptr<Session> session,
+                              const v1::WatchSessionRequest& request) {
+    auto stream = std::make_shared<SessionStream>(session, request.player_id());
     stream->self_ = stream;
-    Status watching = session->watch_session(stream);
-    if (!watching.ok()) stream->end(to_grpc_status(watching));
+    Status watching = session->watch_session(stream, request.player_id(), request.player_secret());
+    if (!watching.ok()) {
+      stream->player_id_ = 0;  // not counted present
+      stream->end(to_grpc_status(watching));
+    }
     return stream.get();
   }
 
@@ -837,7 +842,7 @@ class SessionStream final : public grpc::ServerWriteReactor<v1::SessionEvent>,
   }
 
   void OnDone() override {
-    session_->unwatch_session(this);
+    session_->unwatch_session(this, player_id_);
     std::shared_ptr<SessionStream> last = std::move(self_);  // may destroy this on return
   }
 
@@ -854,6 +859,7 @@ class SessionStream final : public grpc::ServerWriteReactor<v1::SessionEvent>,
   }
 
   const std::shared_ptr<Session> session_;
+  uint32_t player_id_ = 0;  // watching as this player (0: a spectator)
   std::shared_ptr<SessionStream> self_;
   std::mutex mu_;
   std::deque<std::shared_ptr<const v1::SessionEvent>> queue_;  // front: in flight when writing_
@@ -877,7 +883,7 @@ grpc::ServerWriteReactor<v1::SessionEvent>* PhysicsService::WatchSession(
   if (!session.ok()) {
     return new Refused<v1::SessionEvent>("WatchSession", to_grpc_status(session.status()));
   }
-  return SessionStream::start(*session);
+  return SessionStream::start(*session, *request);
 }
 
 namespace {

@@ -135,9 +135,11 @@ class Session : public std::enable_shared_from_this<Session> {
   // every tick whose inputs are all in.
   Status send_input(const v1::SendInputRequest& request, v1::SendInputReply* reply);
   // The watcher gets the world now, then every confirmed tick (FAILED_PRECONDITION when the
-  // world is not a session).
-  Status watch_session(std::shared_ptr<SessionWatcher> watcher);
-  void unwatch_session(const SessionWatcher* watcher);
+  // world is not a session). As a player (id and secret checked) it marks the player present
+  // until unwatch_session.
+  Status watch_session(std::shared_ptr<SessionWatcher> watcher, uint32_t player_id,
+                       const std::string& secret);
+  void unwatch_session(const SessionWatcher* watcher, uint32_t player_id);
 
   // --- Replays on the server (recorder.cpp) ---
   Status start_recording(ReplayStore* store, std::optional<uint32_t> keyframe_interval,
@@ -193,6 +195,8 @@ class Session : public std::enable_shared_from_this<Session> {
   // A session's part of a tick, with mu_ held: seals the tick's inputs and applies the
   // players' batches (one the world refuses is dropped and its player counted missing).
   GameSession::Sealed seal_inputs_locked();
+  // SEAL_RULE_ALL_INPUTS on a paused world: steps every tick whose inputs are all in.
+  void step_complete_ticks_locked();
 
   const uint64_t id_;
   const std::string name_;

@@ -395,5 +395,45 @@ TEST_F(MultiplayerTest, MissingInputsRepeatTheLastAndTheOwnersEditsComeFirst) {
   std::filesystem::remove_all(dir);
 }
 
+TEST_F(MultiplayerTest, APlayerWhoseWatchEndsNoLongerHoldsUpTheTurn) {
+  start();
+  const uint64_t id = create_pyramid();
+  v1::SessionOptions options;
+  options.set_seal(v1::SEAL_RULE_ALL_INPUTS);
+  ASSERT_TRUE(open(id, options).ok());
+  v1::JoinSessionReply p1 = join(id, {kTop});
+  ASSERT_TRUE(last_.ok());
+  v1::JoinSessionReply p2 = join(id, {kBelow});
+  ASSERT_TRUE(last_.ok());
+
+  v1::WatchSessionRequest as_p1;
+  as_p1.set_world_id(id);
+  as_p1.set_player_id(p1.player_id());
+  as_p1.set_player_secret(p2.player_secret());
+  {
+    auto c = context();
+    auto refused = stub_->WatchSession(c.get(), as_p1);
+    v1::SessionEvent event;
+    EXPECT_FALSE(refused->Read(&event));
+    EXPECT_EQ(refused->Finish().error_code(), grpc::StatusCode::PERMISSION_DENIED);
+  }
+  as_p1.set_player_secret(p1.player_secret());
+  auto watch_context = context();
+  auto watch = stub_->WatchSession(watch_context.get(), as_p1);
+  v1::SessionEvent event;
+  ASSERT_TRUE(watch->Read(&event));  // the start: player 1 is present from here
+  ASSERT_TRUE(event.has_start());
+
+  ASSERT_TRUE(send(id, p1, 0, v1::EditBatch()).ok());
+  ASSERT_TRUE(send(id, p2, 0, v1::EditBatch()).ok());
+  EXPECT_EQ(info(id).tick(), 1);
+  ASSERT_TRUE(send(id, p2, 1, impulse(kBelow, 1.0)).ok());
+  EXPECT_EQ(info(id).tick(), 1) << "player 1 is present: the turn waits for it";
+  // Player 1's watch ends: it has left, and the turn goes on without it.
+  watch_context->TryCancel();
+  (void)watch->Finish();
+  EXPECT_TRUE(testing_support::eventually([&] { return info(id).tick() == 2; }, 5s));
+}
+
 }  // namespace
 }  // namespace fulcrum
