@@ -16,6 +16,10 @@ constexpr FlagSpec kSimFlags[] = {
     kBuiltinFlag,
     {"ticks", "N", "number of ticks to step (>= 0)"},
     {"json", "", "print one JSON object instead of text"},
+    {"trace", "FILE", "write figures every --trace-every ticks: CSV, or JSON lines for *.jsonl"},
+    {"trace-every", "K", "with --trace: a row every K ticks (default 1)"},
+    {"trace-bodies", "I,J:G,...", "with --trace: bodies whose states each row carries (handles)"},
+    {"set", "NAME=VALUE", "override a world setting (scene.proto WorldSettings; repeatable)", true},
 };
 constexpr FlagSpec kExportFlags[] = {kSceneFlag, kBuiltinFlag};
 constexpr FlagSpec kReplayFlags[] = {
@@ -94,10 +98,15 @@ constexpr FlagSpec kQueryFlags[] = {
 
 constexpr Command kCommands[] = {
     {"sim", "build a scene, step it N ticks, print the state hash and accuracy figures",
-     "(--scene FILE | --builtin NAME) --ticks N [--json]",
+     "(--scene FILE | --builtin NAME) --ticks N [--json] [--set NAME=VALUE]...\n"
+     "       [--trace FILE [--trace-every K] [--trace-bodies I,J,...]]",
      "Steps the scene on one thread and reports the final tick, the 64-bit state hash, the\n"
-     "wall time per step and World::metrics() (penetration, energy, momentum, awake bodies,\n"
-     "contacts).",
+     "wall time per step (split into ticks with bodies awake and ticks with all asleep),\n"
+     "World::metrics() at the last tick, and over the whole run the largest penetration,\n"
+     "joint error, speed and energy drift (E - E0, E = kinetic + potential, potential = -m g.c\n"
+     "of each dynamic body's centre of mass), each with its tick. --set substeps=6 overrides a\n"
+     "setting by its proto field name (gravity.y for a nested one), range-checked as scene\n"
+     "files are. See docs/sim.md.",
      kSimFlags, 0, run_sim},
     {"scenes", "list the built-in scenes", "", "", {}, 0, run_scenes},
     {"export", "print a scene as JSON (explicit bodies, all settings)",
