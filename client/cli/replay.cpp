@@ -43,7 +43,7 @@ int record(const Invocation& inv) {
   int exit_code = kExitOk;
   if (!load_scene_from_args(inv, &loaded, &exit_code)) return exit_code;
   Result<World> world = build_world(loaded.scene);
-  if (!world.ok()) return inv.fail(world.status().message());
+  if (!world.ok()) return inv.fail(scene_error(loaded, world.status()));
 
   ReplayOptions options;
   options.keyframe_interval = static_cast<uint32_t>(keyframes);
