@@ -20,12 +20,13 @@ constexpr FlagSpec kSimFlags[] = {
     {"trace-every", "K", "with --trace: a row every K ticks (default 1)"},
     {"trace-bodies", "I,J:G,...", "with --trace: bodies whose states each row carries (handles)"},
     {"set", "NAME=VALUE", "override a world setting (scene.proto WorldSettings; repeatable)", true},
+    {"edits", "FILE", "edit script (Protobuf JSON of fulcrum.v1.EditScript) applied as it runs"},
 };
 constexpr FlagSpec kExportFlags[] = {kSceneFlag, kBuiltinFlag};
 constexpr FlagSpec kReplayFlags[] = {
     kSceneFlag,
     kBuiltinFlag,
-    {"ticks", "N", "record: number of ticks to record"},
+    {"ticks", "N", "record: number of ticks to record; info: list ticks (all, T or FROM-TO)"},
     {"out", "FILE", "record: the replay file to write"},
     {"edits", "FILE", "record: edit script (Protobuf JSON of fulcrum.v1.EditScript)"},
     {"keyframes", "K", "record, start: a full snapshot every K ticks (default 60, 0: none)"},
@@ -99,7 +100,7 @@ constexpr FlagSpec kQueryFlags[] = {
 constexpr Command kCommands[] = {
     {"sim", "build a scene, step it N ticks, print the state hash and accuracy figures",
      "(--scene FILE | --builtin NAME) --ticks N [--json] [--set NAME=VALUE]...\n"
-     "       [--trace FILE [--trace-every K] [--trace-bodies I,J,...]]",
+     "       [--edits FILE] [--trace FILE [--trace-every K] [--trace-bodies I,J,...]]",
      "Steps the scene on one thread and reports the final tick, the 64-bit state hash, the\n"
      "wall time per step (split into ticks with bodies awake and ticks with all asleep),\n"
      "World::metrics() at the last tick, and over the whole run the largest penetration,\n"
@@ -117,7 +118,7 @@ constexpr Command kCommands[] = {
      "record (--scene FILE | --builtin NAME) --ticks N --out FILE [--edits FILE] "
      "[--keyframes K]\n"
      "       fulcrum replay verify (FILE | DIR)... [--junit REPORT.xml]\n"
-     "       fulcrum replay info FILE\n"
+     "       fulcrum replay info FILE [--ticks all|T|FROM-TO]\n"
      "       fulcrum replay start WORLD [--keyframes K]   (on a fulcrum-server)\n"
      "       fulcrum replay stop WORLD\n"
      "       fulcrum replay download (WORLD | NAME) --out FILE",

@@ -6,10 +6,13 @@
 #include <cstdio>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <ostream>
 #include <string>
+#include <vector>
 
 #include "command.h"
+#include "edit_script.h"
 #include "fulcrum/scene.h"
 #include "fulcrum/world.h"
 #include "json_writer.h"
@@ -239,6 +242,13 @@ int run_sim(const Invocation& inv) {
 
   Result<World> world = build_world(loaded.scene);
   if (!world.ok()) return inv.fail(scene_error(loaded, world.status()));
+  // Read against the world just built: scene indices name its bodies and joints.
+  std::optional<EditScriptRun> script;
+  if (auto edits = inv.args.value("edits")) {
+    Result<EditScriptRun> read = EditScriptRun::load(*edits, *world, *ticks);
+    if (!read.ok()) return inv.fail(read.status().message());
+    script = std::move(read).value();
+  }
   std::unique_ptr<TraceWriter> trace;
   if (trace_path) {
     for (const BodyId& id : trace_bodies) {
@@ -262,7 +272,14 @@ int run_sim(const Invocation& inv) {
   report.run.start(metrics, world->settings().dt);
   // Only World::step() is timed: building the world and measuring it are not part of the
   // per-step cost.
+  std::vector<v1::EditBatch> applied;
   for (int64_t i = 0; i < *ticks; ++i) {
+    if (script) {
+      applied.clear();
+      if (Status st = script->apply_due(&*world, &applied); !st.ok()) return inv.fail(st.message());
+      // Edits wake bodies (and create them): count the tick by the world the step starts from.
+      if (!applied.empty()) metrics.awake_body_count = world->metrics().awake_body_count;
+    }
     const bool started_awake = metrics.awake_body_count > 0;
     const auto start = std::chrono::steady_clock::now();
     world->step();

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "edit_convert.h"
 #include "fulcrum/world.h"
 #include "scene_convert.h"
 
@@ -248,6 +249,107 @@ TEST(SimCli, SetOverridesTheScenesSettings) {
             std::string::npos)
       << json;
   EXPECT_NE(w.state_hash(), plain.state_hash());  // the overrides did change the run
+}
+
+std::string hash_of(const std::string& json) {
+  const size_t at = json.find("\"stateHash\":\"");
+  return at == std::string::npos ? "" : json.substr(at + 13, 16);
+}
+
+// An edit script that names bodies by scene index runs exactly as the same script with their
+// handles (scenes/edits/pyramid_pokes.json), in sim and in a recorded replay.
+TEST(SimCli, EditsBySceneIndexEqualEditsByHandle) {
+  const std::string pyramid = kScenes + "/pyramid.json";
+  int code = 0;
+  const std::string by_handle = run_cli("sim --scene " + pyramid + " --ticks 240 --json --edits " +
+                                            kScenes + "/edits/pyramid_pokes.json",
+                                        &code);
+  ASSERT_EQ(code, 0) << by_handle;
+  const std::string by_index = run_cli("sim --scene " + pyramid + " --ticks 240 --json --edits " +
+                                           kData + "/pyramid_pokes_by_scene_index.json",
+                                       &code);
+  ASSERT_EQ(code, 0) << by_index;
+  const std::string plain = run_cli("sim --scene " + pyramid + " --ticks 240 --json", &code);
+  EXPECT_EQ(hash_of(by_index), hash_of(by_handle));
+  EXPECT_NE(hash_of(by_index), hash_of(plain));  // the edits did apply
+  // The edits count in the run: 212 bodies at the end (one created), energy gained.
+  EXPECT_EQ(json_number(by_index, "bodyCount"), 212);
+  EXPECT_GT(json_number(by_index, "maxEnergyGain", by_index.find("\"run\":{")), 0.0);
+}
+
+// A scene index names a joint too: the bridge's fourth joint, destroyed at tick 10.
+TEST(SimCli, EditsNameJointsBySceneIndex) {
+  const std::string bridge = kScenes + "/bridge.json";
+  const std::string script = temp_path("cut_bridge.json");
+  std::ofstream(script) << R"({"entries": [{"tick": 10, "batch": {"edits": [)"
+                        << R"({"destroyJoint": {"sceneIndex": 3}}]}}]})";
+  int code = 0;
+  const std::string json =
+      run_cli("sim --scene " + bridge + " --ticks 30 --json --edits " + script, &code);
+  ASSERT_EQ(code, 0) << json;
+  World w = build(bridge);
+  const std::vector<JointId> joints = w.joints();
+  for (int i = 0; i < 10; ++i) w.step();
+  ASSERT_TRUE(w.destroy_joint(joints[3]).ok());
+  for (int i = 10; i < 30; ++i) w.step();
+  EXPECT_EQ(hash_of(json), World::hash_text(w.state_hash()));
+  EXPECT_EQ(json_number(json, "jointCount"), static_cast<double>(joints.size()));
+}
+
+// Only edit scripts resolve scene indices: a batch that still holds one (a client's ApplyEdits)
+// is refused whole, naming the field, and the world is unchanged.
+TEST(SimCli, ApplyEditBatchRefusesSceneIndices) {
+  World w = build(kScenes + "/pyramid.json");
+  const uint64_t before = w.state_hash();
+  v1::EditBatch batch;
+  batch.add_edits()->mutable_set_awake()->mutable_body()->set_index(3);
+  batch.mutable_edits(0)->mutable_set_awake()->mutable_body()->set_generation(1);
+  batch.add_edits()->mutable_set_velocity()->mutable_body()->set_scene_index(3);
+  Result<EditOutcome> out = apply_edit_batch(&w, batch);
+  ASSERT_FALSE(out.ok());
+  EXPECT_EQ(out.status().message().rfind("edits[1].set_velocity.body.scene_index: ", 0), 0u)
+      << out.status().message();
+  EXPECT_EQ(w.state_hash(), before);
+}
+
+// `replay info --ticks all` lists every tick's state hash, which are those of the engine
+// stepping the same scene with the same edits, and each batch at the tick it applied.
+TEST(SimCli, ReplayInfoListsEveryTicksHashAndEdits) {
+  const std::string pyramid = kScenes + "/pyramid.json";
+  const std::string replay = temp_path("pokes.replay");
+  int code = 0;
+  std::string out = run_cli("replay record --scene " + pyramid + " --ticks 240 --out " + replay +
+                                " --edits " + kData + "/pyramid_pokes_by_scene_index.json",
+                            &code);
+  ASSERT_EQ(code, 0) << out;
+  out = run_cli("replay info " + replay + " --ticks all", &code);
+  ASSERT_EQ(code, 0) << out;
+  const size_t table = out.find("\ntick      state hash");
+  ASSERT_NE(table, std::string::npos) << out;
+  const std::vector<std::string> rows = lines(out.substr(table + 1));
+  ASSERT_EQ(rows.size(), 1u + 240);
+  World w = build(pyramid);
+  const SceneHandles scene = scene_handles(w);
+  EditScriptOptions options;
+  options.scene = &scene;
+  Result<v1::EditScript> script =
+      load_edit_script(kData + "/pyramid_pokes_by_scene_index.json", options);
+  ASSERT_TRUE(script.ok()) << script.status().message();
+  for (int t = 0; t < 240; ++t) {
+    bool edited = false;
+    for (const v1::TimedEdits& e : script->entries()) {
+      if (e.tick() != t) continue;
+      ASSERT_TRUE(apply_edit_batch(&w, e.batch()).ok());
+      edited = true;
+    }
+    w.step();
+    const std::string& row = rows[t + 1];
+    EXPECT_EQ(row.rfind(std::to_string(w.tick()) + " ", 0), 0u) << row;
+    EXPECT_NE(row.find(" " + World::hash_text(w.state_hash()) + " "), std::string::npos) << row;
+    EXPECT_EQ(row.find("at tick " + std::to_string(t) + ": {\"edits\":") != std::string::npos,
+              edited)
+        << row;
+  }
 }
 
 }  // namespace
