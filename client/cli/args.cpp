@@ -69,10 +69,13 @@ bool Args::parse(std::span<const std::string> argv, std::span<const FlagSpec> sp
     } else {
       // A following flag is not taken as the value: "--scene --ticks 5" is a missing value.
       if (i + 1 >= argv.size() || argv[i + 1].rfind("--", 0) == 0) {
-        *error = "--" + name + " needs a value (" + std::string(spec->value_name) + ")";
-        return false;
+        if (!spec->value_optional) {
+          *error = "--" + name + " needs a value (" + std::string(spec->value_name) + ")";
+          return false;
+        }
+      } else {
+        value = argv[++i];
       }
-      value = argv[++i];
     }
     out->values_[name].push_back(std::move(value));
   }

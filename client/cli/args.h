@@ -25,6 +25,8 @@ struct FlagSpec {
   std::string_view value_name;  // e.g. "FILE"; empty for a switch that takes no value
   std::string_view help;
   bool repeatable = false;  // may be given more than once (Args::values lists them in order)
+  // The value may be left out (last word, or followed by another flag): it is then "".
+  bool value_optional = false;
 };
 
 // The flags and positional arguments of one invocation, already checked against the specs.

@@ -20,13 +20,15 @@ constexpr FlagSpec kSimFlags[] = {
     {"trace-every", "K", "with --trace: a row every K ticks (default 1)"},
     {"trace-bodies", "I,J:G,...", "with --trace: bodies whose states each row carries (handles)"},
     {"set", "NAME=VALUE", "override a world setting (scene.proto WorldSettings; repeatable)", true},
-    {"edits", "FILE", "edit script (Protobuf JSON of fulcrum.v1.EditScript) applied as it runs"},
+    {"edits", "FILE",
+     "edit script (fulcrum.v1.EditScript JSON; bodies by handle or sceneIndex) applied as it runs"},
 };
 constexpr FlagSpec kExportFlags[] = {kSceneFlag, kBuiltinFlag};
 constexpr FlagSpec kReplayFlags[] = {
     kSceneFlag,
     kBuiltinFlag,
-    {"ticks", "N", "record: number of ticks to record; info: list ticks (all, T or FROM-TO)"},
+    {"ticks", "N", "record: number of ticks to record; info: list ticks (all, T or FROM-TO)", false,
+     true},
     {"out", "FILE", "record: the replay file to write"},
     {"edits", "FILE", "record: edit script (Protobuf JSON of fulcrum.v1.EditScript)"},
     {"keyframes", "K", "record, start: a full snapshot every K ticks (default 60, 0: none)"},
@@ -118,7 +120,7 @@ constexpr Command kCommands[] = {
      "record (--scene FILE | --builtin NAME) --ticks N --out FILE [--edits FILE] "
      "[--keyframes K]\n"
      "       fulcrum replay verify (FILE | DIR)... [--junit REPORT.xml]\n"
-     "       fulcrum replay info FILE [--ticks all|T|FROM-TO]\n"
+     "       fulcrum replay info FILE [--ticks [all|T|FROM-TO]]\n"
      "       fulcrum replay start WORLD [--keyframes K]   (on a fulcrum-server)\n"
      "       fulcrum replay stop WORLD\n"
      "       fulcrum replay download (WORLD | NAME) --out FILE",

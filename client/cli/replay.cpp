@@ -237,14 +237,15 @@ int verify(const Invocation& inv, const std::vector<std::string>& args) {
   return all_ok ? kExitOk : kExitError;
 }
 
-// Which ticks `info --ticks` lists: "all", "T" or "FROM-TO" (ticks after the step, inclusive).
+// Which ticks `info --ticks` lists: "all" (or no value), "T" or "FROM-TO" (ticks after the step,
+// inclusive).
 struct TickRange {
   int64_t from = 0;
   int64_t to = std::numeric_limits<int64_t>::max();
 };
 
 std::optional<TickRange> parse_tick_range(const std::string& text, std::string* error) {
-  if (text == "all") return TickRange{};
+  if (text == "all" || text.empty()) return TickRange{};
   const size_t dash = text.find('-');
   std::optional<int64_t> from =
       parse_int(text.substr(0, dash), 0, std::numeric_limits<int64_t>::max(), error);
