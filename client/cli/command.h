@@ -89,5 +89,6 @@ int run_pause(const Invocation& inv);
 int run_query(const Invocation& inv);
 int run_stats(const Invocation& inv);
 int run_health(const Invocation& inv);
+int run_view(const Invocation& inv);
 
 }  // namespace fulcrum::cli

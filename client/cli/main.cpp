@@ -98,6 +98,15 @@ constexpr FlagSpec kQueryFlags[] = {
     {"all", "", "ray: every hit along the ray, not only the closest"},
     {"category", "BITS", "the query's category bits (default 1; decimal or 0x hex)"},
     {"mask", "BITS", "the query's mask bits (default all)"}};
+constexpr FlagSpec kViewFlags[] = {
+    kServerFlag,
+    kTokenFileFlag,
+    kDeadlineFlag,
+    kTlsCaFlag,
+    kTlsNameFlag,
+    {"listen", "HOST:PORT", "where the page is served (default 127.0.0.1:8080; port 0: any)"},
+    {"world", "ID", "the world the page opens with (default: the first one)"},
+    {"replay", "FILE", "play a replay file locally instead of following a server"}};
 
 constexpr Command kCommands[] = {
     {"sim", "build a scene, step it N ticks, print the state hash and accuracy figures",
@@ -192,6 +201,16 @@ constexpr Command kCommands[] = {
      "checks one service (fulcrum.v1.Physics); default: the whole server. No token needed.\n"
      "The container image's HEALTHCHECK runs it.",
      kHealthFlags, 0, run_health},
+    {"view", "draw a world live in the browser, or play a replay file with a timeline",
+     "[--listen HOST:PORT] [--world ID]\n"
+     "       fulcrum view --replay FILE [--listen HOST:PORT]",
+     "Serves one page (open the printed URL) that draws a world from its frame stream: every\n"
+     "shape, joints as lines, sleeping bodies dimmed; a world picker, run, pause and step,\n"
+     "zoom (wheel) and pan (drag the background); dragging a body pulls it with a target joint\n"
+     "(destroyed on release). With --replay it re-steps the file locally: a timeline seeks any\n"
+     "tick and marks the first tick whose hash differs from the file's. Stops on SIGINT or\n"
+     "SIGTERM (exit 0). See docs/viewer.md.",
+     kViewFlags, 0, run_view},
 };
 
 void print_main_help(std::ostream& out) {

@@ -63,6 +63,8 @@ Status from_grpc(const grpc::Status& s) {
       return Status(StatusCode::kResourceExhausted, s.error_message());
     case grpc::StatusCode::DATA_LOSS:
       return Status(StatusCode::kDataLoss, s.error_message());
+    case grpc::StatusCode::PERMISSION_DENIED:
+      return Status(StatusCode::kPermissionDenied, s.error_message());
     // Messages of these codes often come from gRPC itself ("failed to connect to all
     // addresses"), so they keep the code's name in front, as every other code does.
     case grpc::StatusCode::CANCELLED:
@@ -255,6 +257,15 @@ class GrpcClient final : public Client {
     Status st = unary(&v1::Physics::Stub::GetWorld, request, &reply);
     if (!st.ok()) return st;
     return summary_from(reply);
+  }
+
+  Result<v1::DescribeWorldReply> describe_world(uint64_t world) override {
+    v1::DescribeWorldRequest request;
+    request.set_world_id(world);
+    v1::DescribeWorldReply reply;
+    Status st = unary(&v1::Physics::Stub::DescribeWorld, request, &reply);
+    if (!st.ok()) return st;
+    return reply;
   }
 
   Status delete_world(uint64_t world) override {

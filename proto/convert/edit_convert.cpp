@@ -192,6 +192,16 @@ Status apply_one(World* w, const v1::Edit& e, const std::string& path, const Edi
       return w->destroy_shape(shape(e.destroy_shape()));
     case v1::Edit::kCreateJoint: {
       const v1::CreateJoint& c = e.create_joint();
+      if (c.joint().has_target()) {
+        TargetJointDef def;
+        FULCRUM_RETURN_IF_ERROR(target_joint_from_proto(c.joint(), path + ".joint", &def));
+        def.body_a = body(c.body_a());
+        def.body_b = body(c.body_b());
+        Result<JointId> id = w->create_target_joint(def);
+        if (!id.ok()) return id.status();
+        out->joints.push_back(*id);
+        return {};
+      }
       v1::Joint j = c.joint();  // the scene form, between "body 0" and "body 1"
       j.set_body_a(0);
       j.set_body_b(1);

@@ -1067,6 +1067,9 @@ Status joint_from_proto(const v1::Joint& p, const std::string& path, int body_co
     CONVERT_RETURN_IF_ERROR(read_opt(join(where, "correction_factor"), r.has_correction_factor(),
                                      r.correction_factor(), Range::kUnit, &def.correction_factor));
     out->def = def;
+  } else if (p.has_target()) {
+    return fail(join(path, "target"),
+                "a target joint is created by an edit (CreateJoint), not by a scene");
   } else {
     return fail(path, "needs a kind (distance, revolute, weld, prismatic, wheel or motor)");
   }
@@ -1297,6 +1300,32 @@ void scene_filter_to_proto(const Filter& f, v1::Filter* out) {
 Status scene_joint_from_proto(const v1::Joint& p, const std::string& path, int body_count,
                               SceneJoint* out) {
   return joint_from_proto(p, path, body_count, out);
+}
+
+Status target_joint_from_proto(const v1::Joint& p, const std::string& path, TargetJointDef* def) {
+  if (p.has_local_anchor_a()) {
+    return fail(join(path, "local_anchor_a"),
+                "a target joint has no anchor on body A (use target.target)");
+  }
+  CONVERT_RETURN_IF_ERROR(read_opt_vec(join(path, "local_anchor_b"), p.has_local_anchor_b(),
+                                       p.local_anchor_b(), &def->local_anchor_b));
+  const v1::TargetJoint& t = p.target();
+  const std::string where = join(path, "target");
+  CONVERT_RETURN_IF_ERROR(
+      read_opt_vec(join(where, "target"), t.has_target(), t.target(), &def->target));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(where, "max_force"), t.has_max_force(), t.max_force(),
+                                   Range::kNonNegative, &def->max_force));
+  CONVERT_RETURN_IF_ERROR(
+      read_opt(join(where, "hertz"), t.has_hertz(), t.hertz(), Range::kPositive, &def->hertz));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(where, "damping_ratio"), t.has_damping_ratio(),
+                                   t.damping_ratio(), Range::kNonNegative, &def->damping_ratio));
+  Status s = validate_target_joint_def(*def);
+  if (!s.ok()) {
+    std::string msg = s.message();
+    if (msg.rfind("joint.", 0) == 0) msg = msg.substr(6);
+    return invalid_argument(where + "." + msg);
+  }
+  return Status::ok_status();
 }
 
 #undef CONVERT_RETURN_IF_ERROR

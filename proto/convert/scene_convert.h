@@ -44,5 +44,7 @@ void scene_filter_to_proto(const Filter& f, v1::Filter* out);
 // body_a and body_b index a list of body_count bodies.
 Status scene_joint_from_proto(const v1::Joint& p, const std::string& path, int body_count,
                               SceneJoint* out);
+// A Joint whose kind is `target` (edits only), without its bodies.
+Status target_joint_from_proto(const v1::Joint& p, const std::string& path, TargetJointDef* def);
 
 }  // namespace fulcrum

@@ -16,6 +16,7 @@
 
 #include "fulcrum/scene.h"
 #include "fulcrum/status.h"
+#include "fulcrum/v1/describe.pb.h"
 #include "fulcrum/v1/edit.pb.h"
 #include "fulcrum/v1/stats.pb.h"
 #include "fulcrum/world.h"
@@ -214,6 +215,9 @@ class Client {
   virtual Result<WorldSummary> create_world_json(std::string_view json) = 0;
   virtual Result<std::vector<WorldSummary>> list_worlds() = 0;
   virtual Result<WorldSummary> get_world(uint64_t world) = 0;
+  // Every live body with its shapes (in the body frame) and every joint, at the world's tick
+  // (describe.proto); NOT_FOUND for an unknown world.
+  virtual Result<v1::DescribeWorldReply> describe_world(uint64_t world) = 0;
   virtual Status delete_world(uint64_t world) = 0;
 
   virtual Result<EditResult> apply_edits(uint64_t world, const v1::EditBatch& batch,

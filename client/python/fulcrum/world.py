@@ -7,7 +7,7 @@ from . import snapshots
 from .snapshots import Snapshot
 from .trajectories import step_trajectory
 from .types import Handle, RayHit, ShapeHit, StepResult, to_vec2, vec_tuple
-from .v1 import edit_pb2, query_pb2, runtime_pb2, service_pb2
+from .v1 import describe_pb2, edit_pb2, query_pb2, runtime_pb2, service_pb2
 
 
 def _query_filter(category_bits, mask_bits):
@@ -62,6 +62,13 @@ class World(EditMethods):
         """A fulcrum.v1.WorldInfo: name, tick, counts, state hash, settings, run mode,
         recording."""
         return self.client._call("GetWorld", service_pb2.GetWorldRequest(world_id=self.id))
+
+    def describe(self):
+        """A fulcrum.v1.DescribeWorldReply: every live body as a scene Body (shapes in the
+        body's frame) with its handles, every joint with its anchors, the tick and state hash
+        (describe.proto)."""
+        return self.client._call("DescribeWorld",
+                                 describe_pb2.DescribeWorldRequest(world_id=self.id))
 
     @property
     def tick(self):
