@@ -251,8 +251,10 @@ int run_sim(const Invocation& inv) {
   }
   std::unique_ptr<TraceWriter> trace;
   if (trace_path) {
+    // A body an edit creates is traced from its creation on (empty cells before); without
+    // edits, a handle the scene did not give is a mistake.
     for (const BodyId& id : trace_bodies) {
-      if (!world->is_valid(id)) {
+      if (!script && !world->is_valid(id)) {
         return inv.usage_error("--trace-bodies: no body " + std::to_string(id.index) + ":" +
                                std::to_string(id.generation) + " in the scene (" +
                                std::to_string(world->body_count()) + " bodies, handles 0:1 to " +

@@ -204,6 +204,29 @@ TEST(SimCli, TraceHasARowEveryKTicksWithExactStates) {
   }
 }
 
+// A traced body that an edit creates (pyramid_pokes.json creates body 211 at tick 120) has empty
+// cells until it exists, and its state after.
+TEST(SimCli, TraceFollowsABodyAnEditCreates) {
+  const std::string csv = temp_path("created.csv");
+  int code = 0;
+  const std::string out = run_cli("sim --scene " + kScenes + "/pyramid.json --ticks 210 --edits " +
+                                      kScenes + "/edits/pyramid_pokes.json --trace " + csv +
+                                      " --trace-every 10 --trace-bodies 211",
+                                  &code);
+  ASSERT_EQ(code, 0) << out;
+  const std::vector<std::string> rows = lines(read_file(csv));
+  ASSERT_EQ(rows.size(), 1u + 21);
+  for (size_t r = 1; r < rows.size(); ++r) {
+    const std::vector<std::string> c = cells(rows[r]);
+    ASSERT_EQ(c.size(), 9u + 7) << rows[r];
+    EXPECT_EQ(c[9].empty(), r <= 12) << rows[r];  // ticks 10 to 120: not yet created
+  }
+  // Created at (-6, 30), it has fallen by tick 130.
+  const std::vector<std::string> first = cells(rows[13]);
+  EXPECT_EQ(std::strtod(first[9].c_str(), nullptr), -6.0);
+  EXPECT_LT(std::strtod(first[10].c_str(), nullptr), 30.0);
+}
+
 // A .jsonl trace: one object per sample, the same samples.
 TEST(SimCli, TraceAsJsonLines) {
   const std::string jsonl = temp_path("trace.jsonl");
