@@ -5,6 +5,7 @@
 
 #include <charconv>
 #include <limits>
+#include <string_view>
 
 #include "args.h"
 #include "scene_convert.h"
@@ -20,12 +21,20 @@ const pb::FieldDescriptor* find_field(const pb::Descriptor& type, const std::str
   return type.FindFieldByCamelcaseName(name);
 }
 
+// A decimal number, or a fraction "1/120" (a time step is easier to give as one).
 Status parse_double(const std::string& text, double* out) {
-  const char* end = text.data() + text.size();
-  auto [ptr, ec] = std::from_chars(text.data(), end, *out);
-  if (text.empty() || ec != std::errc() || ptr != end) {
+  const auto whole = [](std::string_view part, double* v) {
+    const char* end = part.data() + part.size();
+    auto [ptr, ec] = std::from_chars(part.data(), end, *v);
+    return !part.empty() && ec == std::errc() && ptr == end;
+  };
+  const size_t slash = text.find('/');
+  double num = 0.0, den = 1.0;
+  if (!whole(std::string_view(text).substr(0, slash), &num) ||
+      (slash != std::string::npos && !whole(std::string_view(text).substr(slash + 1), &den))) {
     return invalid_argument("expected a number, got '" + text + "'");
   }
+  *out = slash == std::string::npos ? num : num / den;
   return {};
 }
 

@@ -57,6 +57,11 @@ double json_number(const std::string& json, const std::string& key, size_t from 
   return std::strtod(p, nullptr);
 }
 
+std::string hash_of(const std::string& json) {
+  const size_t at = json.find("\"stateHash\":\"");
+  return at == std::string::npos ? "" : json.substr(at + 13, 16);
+}
+
 World build(const std::string& path, const WorldSettings* settings = nullptr) {
   Result<SceneDef> scene = load_scene_json(path);
   EXPECT_TRUE(scene.ok()) << scene.status().message();
@@ -274,9 +279,19 @@ TEST(SimCli, SetOverridesTheScenesSettings) {
   EXPECT_NE(w.state_hash(), plain.state_hash());  // the overrides did change the run
 }
 
-std::string hash_of(const std::string& json) {
-  const size_t at = json.find("\"stateHash\":\"");
-  return at == std::string::npos ? "" : json.substr(at + 13, 16);
+// A number may be a fraction: dt=1/120 is the double 1.0 / 120.0, which prints (shortest form) as
+// 0.008333333333333333.
+TEST(SimCli, SetTakesFractions) {
+  int code = 0;
+  const std::string fraction =
+      run_cli("sim --builtin bounce --ticks 100 --json --set dt=1/120", &code);
+  ASSERT_EQ(code, 0) << fraction;
+  const std::string decimal =
+      run_cli("sim --builtin bounce --ticks 100 --json --set dt=0.008333333333333333", &code);
+  ASSERT_EQ(code, 0) << decimal;
+  const std::string plain = run_cli("sim --builtin bounce --ticks 100 --json", &code);
+  EXPECT_EQ(hash_of(fraction), hash_of(decimal));
+  EXPECT_NE(hash_of(fraction), hash_of(plain));
 }
 
 // An edit script that names bodies by scene index runs exactly as the same script with their
