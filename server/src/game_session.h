@@ -84,7 +84,7 @@ class GameSession {
     std::vector<BodyId> bodies;
     std::vector<JointId> joints;
     int64_t first_input_tick = 0;  // the world's tick at join + input_delay
-    v1::EditBatch last_input;  // the last confirmed input (MISSING_INPUT_REPEAT_LAST)
+    v1::EditBatch last_input;      // the last confirmed input (MISSING_INPUT_REPEAT_LAST)
   };
   void player_to_proto(const Player& p, v1::PlayerInfo* out) const;
   Status check_input(const Player& player, const v1::EditBatch& input) const;
