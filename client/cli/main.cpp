@@ -31,6 +31,7 @@ constexpr FlagSpec kReplayFlags[] = {
      true},
     {"out", "FILE", "record: the replay file to write"},
     {"edits", "FILE", "record: edit script (Protobuf JSON of fulcrum.v1.EditScript)"},
+    {"set", "NAME=VALUE", "record: override a world setting, as sim --set (repeatable)", true},
     {"keyframes", "K", "record, start: a full snapshot every K ticks (default 60, 0: none)"},
     {"junit", "FILE", "verify: also write a JUnit XML report, one test case per replay"},
     kServerFlag,
@@ -126,7 +127,7 @@ constexpr Command kCommands[] = {
      "The output is a scene file: `fulcrum sim --scene` on it gives the same state hash.",
      kExportFlags, 0, run_export},
     {"replay", "record, verify or describe a replay file",
-     "record (--scene FILE | --builtin NAME) --ticks N --out FILE [--edits FILE] "
+     "record (--scene FILE | --builtin NAME) --ticks N --out FILE [--edits FILE] [--set N=V]... "
      "[--keyframes K]\n"
      "       fulcrum replay verify (FILE | DIR)... [--junit REPORT.xml]\n"
      "       fulcrum replay info FILE [--ticks [all|T|FROM-TO]]\n"

@@ -16,6 +16,7 @@
 #include "edit_script.h"
 #include "remote.h"
 #include "replay.h"
+#include "set_settings.h"
 #include "snapshot_convert.h"
 
 namespace fulcrum::cli {
@@ -36,9 +37,15 @@ int record(const Invocation& inv) {
     if (!parsed) return inv.usage_error("--keyframes: " + error);
     keyframes = *parsed;
   }
+  Result<std::vector<SettingOverride>> overrides = parse_setting_overrides(inv.args.values("set"));
+  if (!overrides.ok()) return inv.usage_error(overrides.status().message());
   LoadedScene loaded;
   int exit_code = kExitOk;
   if (!load_scene_from_args(inv, &loaded, &exit_code)) return exit_code;
+  // The replay's initial snapshot carries the settings, so verify needs no --set.
+  if (Status st = apply_setting_overrides(*overrides, &loaded.scene.settings); !st.ok()) {
+    return inv.usage_error(st.message());
+  }
   Result<World> world = build_world(loaded.scene);
   if (!world.ok()) return inv.fail(scene_error(loaded, world.status()));
   // Read against the world just built: scene indices name its bodies and joints.
@@ -396,6 +403,7 @@ int run_replay(const Invocation& inv) {
     return inv.usage_error("missing action: record, verify, info, start, stop or download");
   }
   const std::string& action = pos[0];
+  if (action != "record" && inv.args.has("set")) return inv.usage_error("--set is for record only");
   if (action == "record") {
     if (pos.size() > 1) return inv.usage_error("record takes no FILE argument (use --out)");
     return record(inv);

@@ -279,6 +279,25 @@ TEST(SimCli, SetOverridesTheScenesSettings) {
   EXPECT_NE(w.state_hash(), plain.state_hash());  // the overrides did change the run
 }
 
+// replay record takes --set as sim does: the recording reaches sim's state hash and verifies on
+// its own (its initial snapshot carries the settings).
+TEST(SimCli, ReplayRecordTakesSetAsSimDoes) {
+  const std::string replay = temp_path("set.replay");
+  const std::string sets = " --set substeps=6 --set gravity.x=1";
+  int code = 0;
+  const std::string sim = run_cli("sim --builtin vertical_stack --ticks 90 --json" + sets, &code);
+  ASSERT_EQ(code, 0) << sim;
+  std::string out =
+      run_cli("replay record --builtin vertical_stack --ticks 90 --out " + replay + sets, &code);
+  ASSERT_EQ(code, 0) << out;
+  EXPECT_NE(out.find("final tick 90, state hash " + hash_of(sim)), std::string::npos) << out;
+  out = run_cli("replay verify " + replay, &code);
+  EXPECT_EQ(code, 0) << out;
+  out = run_cli("replay verify " + replay + " --set substeps=6", &code);
+  EXPECT_EQ(code, 2) << out;
+  EXPECT_NE(out.find("--set is for record only"), std::string::npos) << out;
+}
+
 // A number may be a fraction: dt=1/120 is the double 1.0 / 120.0, which prints (shortest form) as
 // 0.008333333333333333.
 TEST(SimCli, SetTakesFractions) {
