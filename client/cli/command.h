@@ -65,6 +65,10 @@ struct LoadedScene {
 // false; returns true on success.
 bool load_scene_from_args(const Invocation& inv, LoadedScene* loaded, int* exit_code);
 
+// An error from building the loaded scene's world, named after the scene file as load errors
+// are ("scenes/x.json: joints[1].body_b: ...").
+std::string scene_error(const LoadedScene& loaded, const Status& status);
+
 // A state hash as 16 hex digits, the way every subcommand prints it.
 std::string hex64(uint64_t value);
 

@@ -16,14 +16,22 @@ constexpr FlagSpec kSimFlags[] = {
     kBuiltinFlag,
     {"ticks", "N", "number of ticks to step (>= 0)"},
     {"json", "", "print one JSON object instead of text"},
+    {"trace", "FILE", "write figures every --trace-every ticks: CSV, or JSON lines for *.jsonl"},
+    {"trace-every", "K", "with --trace: a row every K ticks (default 1)"},
+    {"trace-bodies", "I,J:G,...", "with --trace: bodies whose states each row carries (handles)"},
+    {"set", "NAME=VALUE", "override a world setting (scene.proto WorldSettings; repeatable)", true},
+    {"edits", "FILE",
+     "edit script (fulcrum.v1.EditScript JSON; bodies by handle or sceneIndex) applied as it runs"},
 };
 constexpr FlagSpec kExportFlags[] = {kSceneFlag, kBuiltinFlag};
 constexpr FlagSpec kReplayFlags[] = {
     kSceneFlag,
     kBuiltinFlag,
-    {"ticks", "N", "record: number of ticks to record"},
+    {"ticks", "N", "record: number of ticks to record; info: list ticks (all, T or FROM-TO)", false,
+     true},
     {"out", "FILE", "record: the replay file to write"},
     {"edits", "FILE", "record: edit script (Protobuf JSON of fulcrum.v1.EditScript)"},
+    {"set", "NAME=VALUE", "record: override a world setting, as sim --set (repeatable)", true},
     {"keyframes", "K", "record, start: a full snapshot every K ticks (default 60, 0: none)"},
     {"junit", "FILE", "verify: also write a JUnit XML report, one test case per replay"},
     kServerFlag,
@@ -118,10 +126,15 @@ constexpr FlagSpec kViewFlags[] = {
 
 constexpr Command kCommands[] = {
     {"sim", "build a scene, step it N ticks, print the state hash and accuracy figures",
-     "(--scene FILE | --builtin NAME) --ticks N [--json]",
+     "(--scene FILE | --builtin NAME) --ticks N [--json] [--set NAME=VALUE]...\n"
+     "       [--edits FILE] [--trace FILE [--trace-every K] [--trace-bodies I,J,...]]",
      "Steps the scene on one thread and reports the final tick, the 64-bit state hash, the\n"
-     "wall time per step and World::metrics() (penetration, energy, momentum, awake bodies,\n"
-     "contacts).",
+     "wall time per step (split into ticks with bodies awake and ticks with all asleep),\n"
+     "World::metrics() at the last tick, and over the whole run the largest penetration,\n"
+     "joint error, speed and energy drift (E - E0, E = kinetic + potential, potential = -m g.c\n"
+     "of each dynamic body's centre of mass), each with its tick. --set substeps=6 overrides a\n"
+     "setting by its proto field name (gravity.y for a nested one), range-checked as scene\n"
+     "files are. See docs/sim.md.",
      kSimFlags, 0, run_sim},
     {"scenes", "list the built-in scenes", "", "", {}, 0, run_scenes},
     {"export", "print a scene as JSON (explicit bodies, all settings)",
@@ -129,10 +142,10 @@ constexpr Command kCommands[] = {
      "The output is a scene file: `fulcrum sim --scene` on it gives the same state hash.",
      kExportFlags, 0, run_export},
     {"replay", "record, verify or describe a replay file",
-     "record (--scene FILE | --builtin NAME) --ticks N --out FILE [--edits FILE] "
+     "record (--scene FILE | --builtin NAME) --ticks N --out FILE [--edits FILE] [--set N=V]... "
      "[--keyframes K]\n"
      "       fulcrum replay verify (FILE | DIR)... [--junit REPORT.xml]\n"
-     "       fulcrum replay info FILE\n"
+     "       fulcrum replay info FILE [--ticks [all|T|FROM-TO]]\n"
      "       fulcrum replay start WORLD [--keyframes K]   (on a fulcrum-server)\n"
      "       fulcrum replay stop WORLD\n"
      "       fulcrum replay download (WORLD | NAME) --out FILE",

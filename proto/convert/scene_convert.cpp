@@ -897,6 +897,11 @@ Status joint_from_proto(const v1::Joint& p, const std::string& path, int body_co
     return fail(join(path, "body_b"), "no body " + std::to_string(p.body_b()) + " in the scene (" +
                                           std::to_string(body_count) + " bodies)");
   }
+  // build_world refuses it too; here the message can name the file it came from.
+  if (p.body_a() == p.body_b()) {
+    return fail(join(path, "body_b"),
+                "must differ from body_a (both are body " + std::to_string(p.body_a()) + ")");
+  }
   out->body_a = static_cast<int>(p.body_a());
   out->body_b = static_cast<int>(p.body_b());
   Vec2 anchor_a = Vec2::Zero(), anchor_b = Vec2::Zero();
