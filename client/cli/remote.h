@@ -33,10 +33,6 @@ std::unique_ptr<client::Client> connect_from_args(const Invocation& inv, int* ex
 // *exit_code and returns nullopt.
 std::optional<uint64_t> world_arg(const Invocation& inv, size_t index, int* exit_code);
 
-// "3,7:2,12": body handles as INDEX or INDEX:GENERATION (generation 1 when left out, as for the
-// bodies of a new world's scene). nullopt (and *error naming the item) when one is malformed.
-std::optional<std::vector<BodyId>> parse_body_list(const std::string& text, std::string* error);
-
 // Reads a whole file; nullopt (and *error) when it cannot.
 std::optional<std::string> read_file(const std::string& path, std::string* error);
 
