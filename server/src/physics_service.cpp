@@ -744,31 +744,32 @@ grpc::Status PhysicsService::RestoreSnapshotStream(
 
 // --- Multiplayer sessions ---------------------------------------------------------------------
 
+template <typename Request, typename Reply>
+grpc::Status PhysicsService::on_world(grpc::ServerContext* context, const Request& request,
+                                      Reply* reply,
+                                      Status (Session::*method)(const Request&, Reply*)) {
+  FULCRUM_ADMIT_CALL(context);
+  auto session = registry_->find(request.world_id());
+  if (!session.ok()) return to_grpc_status(session.status());
+  return to_grpc_status(((**session).*method)(request, reply));
+}
+
 grpc::Status PhysicsService::OpenSession(grpc::ServerContext* context,
                                          const v1::OpenSessionRequest* request,
                                          v1::OpenSessionReply* reply) {
-  FULCRUM_ADMIT_CALL(context);
-  auto session = registry_->find(request->world_id());
-  if (!session.ok()) return to_grpc_status(session.status());
-  return to_grpc_status((*session)->open_session(*request, reply));
+  return on_world(context, *request, reply, &Session::open_session);
 }
 
 grpc::Status PhysicsService::JoinSession(grpc::ServerContext* context,
                                          const v1::JoinSessionRequest* request,
                                          v1::JoinSessionReply* reply) {
-  FULCRUM_ADMIT_CALL(context);
-  auto session = registry_->find(request->world_id());
-  if (!session.ok()) return to_grpc_status(session.status());
-  return to_grpc_status((*session)->join_session(*request, reply));
+  return on_world(context, *request, reply, &Session::join_session);
 }
 
 grpc::Status PhysicsService::SendInput(grpc::ServerContext* context,
                                        const v1::SendInputRequest* request,
                                        v1::SendInputReply* reply) {
-  FULCRUM_ADMIT_CALL(context);
-  auto session = registry_->find(request->world_id());
-  if (!session.ok()) return to_grpc_status(session.status());
-  return to_grpc_status((*session)->send_input(*request, reply));
+  return on_world(context, *request, reply, &Session::send_input);
 }
 
 namespace {

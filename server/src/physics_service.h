@@ -105,6 +105,10 @@ class PhysicsService final
   // `world_id`, or a fork named `name` when it is 0.
   grpc::Status restore(uint64_t world_id, const std::string& name, const v1::SnapshotFile& file,
                        v1::RestoreSnapshotReply* reply);
+  // Admits the call, finds its world (request.world_id()) and runs `method` on it.
+  template <typename Request, typename Reply>
+  grpc::Status on_world(grpc::ServerContext* context, const Request& request, Reply* reply,
+                        Status (Session::*method)(const Request&, Reply*));
   // The limits the registry's worlds are built under.
   WorkLimits work_limits(const grpc::ServerContext* context) const;
 
