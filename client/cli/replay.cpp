@@ -14,6 +14,7 @@
 #include "command.h"
 #include "edit_convert.h"
 #include "edit_script.h"
+#include "fulcrum/fingerprint.h"
 #include "remote.h"
 #include "replay.h"
 #include "set_settings.h"
@@ -312,6 +313,12 @@ int info(const Invocation& inv, const std::string& path) {
   inv.out << "replay      " << path << "\n"
           << "writer      " << r.header.writer() << " (format version " << r.header.version()
           << ")\n"
+          << "engine      "
+          << (r.header.initial().fingerprint().empty() ? std::string("(no fingerprint)")
+                                                       : r.header.initial().fingerprint())
+          << (r.header.initial().fingerprint() == kDeterminismFingerprint ? " (this build's)"
+                                                                          : " (not this build's)")
+          << "\n"
           << "scene       " << r.header.scene() << "\n"
           << "bodies      " << bodies << " at tick " << first_tick << "\n"
           << "ticks       " << r.ticks.size() << "\n"

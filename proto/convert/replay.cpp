@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "edit_convert.h"
+#include "fulcrum/fingerprint.h"
 #include "fulcrum/state.h"
 #include "snapshot_convert.h"
 
@@ -200,6 +201,20 @@ Result<v1::Snapshot> keyframe_of(const v1::ReplayTick& t) {
   return s;
 }
 
+// A divergence of a replay recorded by an engine of other results is what that engine change
+// did, not a fault: the report says so first.
+ReplayReport explained(const ReplayContents& replay, ReplayReport report) {
+  const std::string& recorded = replay.header.initial().fingerprint();
+  if (report.ok || recorded == kDeterminismFingerprint) return report;
+  report.detail =
+      (recorded.empty() ? std::string("recorded by an engine older than determinism "
+                                      "fingerprints")
+                        : "recorded by an engine that gives the results of " + recorded) +
+      ", and this build gives those of " + kDeterminismFingerprint +
+      ", so a divergence is expected; re-record it with this build. " + report.detail;
+  return report;
+}
+
 }  // namespace
 
 Result<ReplayReport> verify_replay(const ReplayContents& replay) {
@@ -255,12 +270,12 @@ Result<ReplayReport> verify_replay(const ReplayContents& replay) {
                            : "; no keyframe at that tick; at the next keyframe (tick " +
                                  std::to_string(t.tick()) + ") the first difference is: ";
       report.detail += keyframe_diff.empty() ? "(none in the records)" : keyframe_diff;
-      return report;
+      return explained(replay, std::move(report));
     }
   }
   report.ok = diverged_at == replay.ticks.size();
   if (!report.ok) report.detail += "; no keyframe after it to compare";
-  return report;
+  return explained(replay, std::move(report));
 }
 
 }  // namespace fulcrum

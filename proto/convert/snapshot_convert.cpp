@@ -1,6 +1,8 @@
 // Snapshot conversion: engine records <-> proto messages, field by field and bit for bit.
 #include "snapshot_convert.h"
 
+#include "fulcrum/fingerprint.h"
+
 #include <google/protobuf/descriptor.h>
 
 #include <cstring>
@@ -437,6 +439,7 @@ v1::SnapshotFile wrap_snapshot(const v1::Snapshot& snapshot) {
   file.set_format(kSnapshotFormat);
   file.set_version(kSnapshotVersion);
   file.set_writer(kWriterName);
+  file.set_fingerprint(kDeterminismFingerprint);
   snapshot.SerializeToString(file.mutable_payload());
   file.set_checksum(fnv1a64(file.payload()));
   return file;

@@ -1,6 +1,7 @@
 // Edit batches and replay files: atomic batches, honest replays verify, and a replay altered on
 // purpose is caught at the right tick with the right body named.
 #include "replay.h"
+#include "fulcrum/fingerprint.h"
 
 #include <gtest/gtest.h>
 
@@ -177,6 +178,32 @@ TEST(Replay, AlteredEditIsFoundAtItsTickAndBody) {
   EXPECT_FALSE(report->ok);
   EXPECT_EQ(report->first_divergent_tick, 71);
   EXPECT_NE(report->detail.find("bodies[551]."), std::string::npos) << "detail: " << report->detail;
+  std::filesystem::remove(path);
+}
+
+// A replay recorded by an engine of other results (its fingerprint differs): a divergence is
+// reported as what that engine change did, first; one that still verifies stays OK.
+TEST(Replay, ADivergenceOfAnotherEnginesReplaySaysSoFirst) {
+  std::string path = record("foreign.replay", 30);
+  Result<ReplayContents> replay = read_replay(path);
+  ASSERT_TRUE(replay.ok());
+  EXPECT_EQ(replay->header.initial().fingerprint(), kDeterminismFingerprint);
+  replay->header.mutable_initial()->set_fingerprint("fulcrum-results-0");
+  Result<ReplayReport> same = verify_replay(*replay);
+  ASSERT_TRUE(same.ok());
+  EXPECT_TRUE(same->ok) << same->detail;
+  replay->ticks[40].set_state_hash(replay->ticks[40].state_hash() ^ 1);
+  Result<ReplayReport> report = verify_replay(*replay);
+  ASSERT_TRUE(report.ok());
+  EXPECT_FALSE(report->ok);
+  EXPECT_EQ(report->first_divergent_tick, 41);
+  EXPECT_EQ(report->detail.rfind("recorded by an engine that gives the results of "
+                                 "fulcrum-results-0, and this build gives those of " +
+                                     std::string(kDeterminismFingerprint) +
+                                     ", so a divergence is expected",
+                                 0),
+            0u)
+      << report->detail;
   std::filesystem::remove(path);
 }
 

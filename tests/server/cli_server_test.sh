@@ -136,8 +136,8 @@ grep -q -- "--bodies: 'x'" "$WORK/err.txt" || fail "bad bodies: $(cat "$WORK/err
 # hash on their own copy of the world, a spectator follows; the bot that stops first leaves, and
 # the other goes on alone.
 "$F" create --server "$ADDR" --scene "$SCENES/pyramid.json" >/dev/null
-"$F" session open 3 --players 2 --seal all-inputs --input-delay 2 --server "$ADDR" |
-  grep -q "^world 3: a session from tick 0, at most 2 players" || fail "session open"
+out="$("$F" session open 3 --players 2 --seal all-inputs --input-delay 2 --server "$ADDR")"
+[[ "$out" == "world 3: a session from tick 0, at most 2 players"* ]] || fail "session open: $out"
 "$F" session watch 3 --ticks 90 --server "$ADDR" >"$WORK/sw.out" 2>"$WORK/sw.err" &
 SW=$!
 "$F" session bot 3 --bodies 210 --ticks 60 --server "$ADDR" >"$WORK/b1.out" 2>"$WORK/b1.err" &
