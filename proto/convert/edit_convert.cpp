@@ -11,6 +11,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "fulcrum/state.h"
 #include "scene_convert.h"
@@ -187,6 +188,19 @@ Status apply_one(World* w, const v1::Edit& e, const std::string& path, const Edi
     }
     case v1::Edit::kSetAwake:
       return w->set_awake(body(e.set_awake().body()), e.set_awake().awake());
+    case v1::Edit::kSetConstantForce: {
+      const v1::SetConstantForce& f = e.set_constant_force();
+      return w->set_constant_force(body(f.body()), get(f.force()), f.torque());
+    }
+    case v1::Edit::kSetAttractors: {
+      const v1::SetAttractors& a = e.set_attractors();
+      std::vector<AttractorDef> list(a.attractors_size());
+      for (int i = 0; i < a.attractors_size(); ++i) {
+        FULCRUM_RETURN_IF_ERROR(scene_attractor_from_proto(
+            a.attractors(i), path + ".attractors[" + std::to_string(i) + "]", &list[i]));
+      }
+      return w->set_attractors(list);
+    }
     case v1::Edit::KIND_NOT_SET:
       break;
   }

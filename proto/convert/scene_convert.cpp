@@ -402,6 +402,11 @@ Status body_from_proto(const v1::Body& p, const std::string& path, SceneBody* bo
   if (p.has_awake()) def.awake = p.awake();
   if (p.has_enable_sleep()) def.enable_sleep = p.enable_sleep();
   def.user_data = p.user_data();
+  CONVERT_RETURN_IF_ERROR(read_opt_vec(join(path, "constant_force"), p.has_constant_force(),
+                                       p.constant_force(), &def.constant_force));
+  CONVERT_RETURN_IF_ERROR(
+      check(join(path, "constant_torque"), p.constant_torque(), Range::kFinite));
+  def.constant_torque = p.constant_torque();
 
   body->shapes.resize(p.shapes_size());
   for (int i = 0; i < p.shapes_size(); ++i) {
@@ -573,6 +578,7 @@ Status builder_from_proto(const v1::Builder& p, const std::string& path, SceneDe
       return cloth_from_proto(p.cloth(), join(path, "cloth"), scene);
     case v1::Builder::kRagdoll:
       return ragdoll_from_proto(p.ragdoll(), join(path, "ragdoll"), scene);
+
     case v1::Builder::KIND_NOT_SET:
       break;
   }
@@ -793,6 +799,10 @@ void body_to_proto(const SceneBody& b, v1::Body* out) {
   if (def.awake != d.awake) out->set_awake(def.awake);
   if (def.enable_sleep != d.enable_sleep) out->set_enable_sleep(def.enable_sleep);
   out->set_user_data(def.user_data);
+  if (!same(def.constant_force, d.constant_force)) {
+    vec_to_proto(def.constant_force, out->mutable_constant_force());
+  }
+  out->set_constant_torque(def.constant_torque);
   for (const ShapeDef& s : b.shapes) shape_to_proto(s, out->add_shapes());
   for (const ChainDef& c : b.chains) chain_to_proto(c, out->add_chains());
 }
@@ -1178,6 +1188,35 @@ void joint_to_proto(const SceneJoint& j, v1::Joint* out) {
   }
 }
 
+Status attractor_from_proto(const v1::Attractor& p, const std::string& path, AttractorDef* a) {
+  *a = AttractorDef{};
+  CONVERT_RETURN_IF_ERROR(read_opt_vec(join(path, "point"), p.has_point(), p.point(), &a->point));
+  CONVERT_RETURN_IF_ERROR(check(join(path, "strength"), p.strength(), Range::kFinite));
+  a->strength = p.strength();
+  // Proto3 enums are open: a JSON number outside the enum parses, so it is checked here.
+  if (!v1::Falloff_IsValid(p.falloff())) {
+    return fail(join(path, "falloff"), "unknown falloff " + std::to_string(p.falloff()));
+  }
+  a->falloff = static_cast<Falloff>(p.falloff());
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "min_distance"), p.has_min_distance(),
+                                   p.min_distance(), Range::kPositive, &a->min_distance));
+  if (p.has_per_mass()) a->per_mass = p.per_mass();
+  if (p.has_mask_bits()) a->mask_bits = p.mask_bits();
+  // The engine's own check (the magnitude bound), named at this path.
+  return validate_attractor(*a, path);
+}
+
+// Every field written (snapshots restore them exactly; exported scenes do not depend on
+// today's defaults).
+void attractor_to_proto(const AttractorDef& a, v1::Attractor* out) {
+  vec_to_proto(a.point, out->mutable_point());
+  out->set_strength(a.strength);
+  out->set_falloff(static_cast<v1::Falloff>(a.falloff));
+  out->set_min_distance(a.min_distance);
+  out->set_per_mass(a.per_mass);
+  out->set_mask_bits(a.mask_bits);
+}
+
 }  // namespace
 
 Result<SceneDef> scene_from_proto(const v1::Scene& proto) {
@@ -1213,6 +1252,12 @@ Result<SceneDef> scene_from_proto(const v1::Scene& proto) {
                                              static_cast<int>(scene.bodies.size()), &joint));
     scene.joints.push_back(joint);
   }
+  for (int i = 0; i < proto.attractors_size(); ++i) {
+    AttractorDef a;
+    CONVERT_RETURN_IF_ERROR(
+        attractor_from_proto(proto.attractors(i), indexed("", "attractors", i), &a));
+    scene.attractors.push_back(a);
+  }
   return scene;
 }
 
@@ -1222,6 +1267,7 @@ v1::Scene scene_to_proto(const SceneDef& scene, std::string_view name) {
   settings_to_proto(scene.settings, out.mutable_settings());
   for (const SceneBody& b : scene.bodies) body_to_proto(b, out.add_bodies());
   for (const SceneJoint& j : scene.joints) joint_to_proto(j, out.add_joints());
+  for (const AttractorDef& a : scene.attractors) attractor_to_proto(a, out.add_attractors());
   return out;
 }
 
@@ -1292,6 +1338,13 @@ void scene_filter_to_proto(const Filter& f, v1::Filter* out) {
 Status scene_joint_from_proto(const v1::Joint& p, const std::string& path, int body_count,
                               SceneJoint* out) {
   return joint_from_proto(p, path, body_count, out);
+}
+Status scene_attractor_from_proto(const v1::Attractor& p, const std::string& path,
+                                  AttractorDef* out) {
+  return attractor_from_proto(p, path, out);
+}
+void scene_attractor_to_proto(const AttractorDef& a, v1::Attractor* out) {
+  attractor_to_proto(a, out);
 }
 
 #undef CONVERT_RETURN_IF_ERROR
