@@ -477,13 +477,94 @@ Status stack_from_proto(const v1::Builder::Stack& p, const std::string& path, Sc
 }
 
 Status ground_from_proto(const v1::Builder::Ground& p, const std::string& path, SceneDef* scene) {
+  scenes::GroundOptions o;
   CONVERT_RETURN_IF_ERROR(check(join(path, "half_width"), p.half_width(), Range::kPositive));
+  o.half_width = p.half_width();
   CONVERT_RETURN_IF_ERROR(check(join(path, "top"), p.top(), Range::kFinite));
-  double friction = 0.6;  // add_ground's default
+  o.center = Vec2(0.0, p.top());
+  if (p.has_center()) {
+    if (p.top() != 0.0) return fail(join(path, "top"), "give center or top, not both");
+    CONVERT_RETURN_IF_ERROR(read_opt_vec(join(path, "center"), true, p.center(), &o.center));
+  }
+  CONVERT_RETURN_IF_ERROR(check(join(path, "angle"), p.angle(), Range::kFinite));
+  o.angle = p.angle();
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "thickness"), p.has_thickness(), p.thickness(),
+                                   Range::kPositive, &o.thickness));
   CONVERT_RETURN_IF_ERROR(read_opt(join(path, "friction"), p.has_friction(), p.friction(),
-                                   Range::kNonNegative, &friction));
+                                   Range::kNonNegative, &o.friction));
   CONVERT_RETURN_IF_ERROR(check_room(path, *scene, 1));
-  scenes::add_ground(scene, p.half_width(), p.top(), friction);
+  scenes::add_ground(scene, o);
+  return Status::ok_status();
+}
+
+Status joint_chain_from_proto(const v1::Builder::JointChain& p, const std::string& path,
+                              SceneDef* scene) {
+  scenes::JointChainOptions o;
+  CONVERT_RETURN_IF_ERROR(
+      read_opt_vec(join(path, "anchor"), p.has_anchor(), p.anchor(), &o.anchor));
+  if (p.has_links()) {
+    CONVERT_RETURN_IF_ERROR(check_int(join(path, "links"), p.links(), 1, kMaxStackCount));
+    o.links = p.links();
+  }
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "link_width"), p.has_link_width(), p.link_width(),
+                                   Range::kPositive, &o.link_width));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "link_length"), p.has_link_length(), p.link_length(),
+                                   Range::kPositive, &o.link_length));
+  if (!(o.link_length > o.link_width)) {
+    return fail(join(path, "link_length"), "must be > link_width (got " + fmt(o.link_length) +
+                                               " <= " + fmt(o.link_width) + ")");
+  }
+  if (!v1::Builder_JointChain_LinkShape_IsValid(p.shape())) {
+    return fail(join(path, "shape"), "unknown link shape " + std::to_string(p.shape()));
+  }
+  o.shape = static_cast<scenes::JointChainOptions::LinkShape>(p.shape());
+  if (!v1::Builder_JointChain_Kind_IsValid(p.joint())) {
+    return fail(join(path, "joint"), "unknown joint kind " + std::to_string(p.joint()));
+  }
+  o.joint = static_cast<scenes::JointChainOptions::JointKind>(p.joint());
+  CONVERT_RETURN_IF_ERROR(check(join(path, "angle"), p.angle(), Range::kFinite));
+  o.angle = p.angle();
+  CONVERT_RETURN_IF_ERROR(
+      read_opt(join(path, "density"), p.has_density(), p.density(), Range::kPositive, &o.density));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "friction"), p.has_friction(), p.friction(),
+                                   Range::kNonNegative, &o.friction));
+  CONVERT_RETURN_IF_ERROR(check(join(path, "end_mass"), p.end_mass(), Range::kNonNegative));
+  o.end_mass = p.end_mass();
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "end_radius"), p.has_end_radius(), p.end_radius(),
+                                   Range::kPositive, &o.end_radius));
+  CONVERT_RETURN_IF_ERROR(check_room(path, *scene, o.links + 2));
+  scenes::add_joint_chain(scene, o);
+  return Status::ok_status();
+}
+
+Status card_house_from_proto(const v1::Builder::CardHouse& p, const std::string& path,
+                             SceneDef* scene) {
+  scenes::CardHouseOptions o;
+  CONVERT_RETURN_IF_ERROR(
+      read_opt_vec(join(path, "origin"), p.has_origin(), p.origin(), &o.origin));
+  if (p.has_levels()) {
+    CONVERT_RETURN_IF_ERROR(check_int(join(path, "levels"), p.levels(), 1, 100));
+    o.levels = p.levels();
+  }
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "card_length"), p.has_card_length(), p.card_length(),
+                                   Range::kPositive, &o.card_length));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "card_thickness"), p.has_card_thickness(),
+                                   p.card_thickness(), Range::kPositive, &o.card_thickness));
+  if (!(o.card_thickness <= o.card_length / 20.0)) {
+    return fail(join(path, "card_thickness"),
+                "must be <= card_length / 20 (got " + fmt(o.card_thickness) + ")");
+  }
+  CONVERT_RETURN_IF_ERROR(
+      read_opt(join(path, "lean"), p.has_lean(), p.lean(), Range::kFinite, &o.lean));
+  if (!(o.lean >= 0.05 && o.lean <= 0.45)) {
+    return fail(join(path, "lean"), "must be in [0.05, 0.45] (got " + fmt(o.lean) + ")");
+  }
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "friction"), p.has_friction(), p.friction(),
+                                   Range::kNonNegative, &o.friction));
+  CONVERT_RETURN_IF_ERROR(
+      read_opt(join(path, "density"), p.has_density(), p.density(), Range::kPositive, &o.density));
+  CONVERT_RETURN_IF_ERROR(check_room(path, *scene, (3 * o.levels * o.levels + o.levels) / 2));
+  scenes::add_card_house(scene, o);
   return Status::ok_status();
 }
 
@@ -578,11 +659,16 @@ Status builder_from_proto(const v1::Builder& p, const std::string& path, SceneDe
       return cloth_from_proto(p.cloth(), join(path, "cloth"), scene);
     case v1::Builder::kRagdoll:
       return ragdoll_from_proto(p.ragdoll(), join(path, "ragdoll"), scene);
-
+    case v1::Builder::kJointChain:
+      return joint_chain_from_proto(p.joint_chain(), join(path, "joint_chain"), scene);
+    case v1::Builder::kCardHouse:
+      return card_house_from_proto(p.card_house(), join(path, "card_house"), scene);
     case v1::Builder::KIND_NOT_SET:
       break;
   }
-  return fail(path, "no builder (set one of pyramid, stack, ground, rope, cloth, ragdoll)");
+  return fail(path,
+              "no builder (set one of pyramid, stack, ground, rope, cloth, ragdoll, joint_chain, "
+              "card_house)");
 }
 
 // --- Engine to proto ---------------------------------------------------------------------------

@@ -520,6 +520,65 @@ TEST(SceneJson, BuiltinThenBuildersThenBodies) {
   EXPECT_EQ(diff_settings(expected, scene->settings), "");
 }
 
+// The JSON spelling of the hand-written-scene builders: a ground placed anywhere, a joint
+// chain, a card house; each gives what its builder function gives.
+TEST(SceneJson, HandBuildersMatchTheBuilderFunctions) {
+  Result<SceneDef> scene = parse_scene_json(R"({"builders": [
+    {"ground": {"halfWidth": 30, "center": {"x": 2, "y": -1}, "angle": -0.2, "thickness": 0.5,
+                "friction": 0.9}},
+    {"ground": {"halfWidth": 10, "top": 3}},
+    {"jointChain": {"anchor": {"x": -5, "y": 12}, "links": 8, "linkLength": 0.8,
+                    "linkWidth": 0.2, "shape": "LINK_SHAPE_BOX", "joint": "KIND_WELD",
+                    "angle": 0.5, "density": 2, "friction": 0.3, "endMass": 100,
+                    "endRadius": 0.4}},
+    {"jointChain": {}},
+    {"cardHouse": {"origin": {"x": 7}, "levels": 4, "cardLength": 0.9, "cardThickness": 0.03,
+                   "lean": 0.3, "friction": 0.8, "density": 0.5}}
+  ]})");
+  ASSERT_TRUE(scene.ok()) << scene.status().to_string();
+  SceneDef expected;
+  scenes::GroundOptions g;
+  g.half_width = 30;
+  g.center = Vec2(2, -1);
+  g.angle = -0.2;
+  g.thickness = 0.5;
+  g.friction = 0.9;
+  scenes::add_ground(&expected, g);
+  scenes::add_ground(&expected, 10.0, 3.0);
+  scenes::JointChainOptions c;
+  c.anchor = Vec2(-5, 12);
+  c.links = 8;
+  c.link_length = 0.8;
+  c.link_width = 0.2;
+  c.shape = scenes::JointChainOptions::LinkShape::kBox;
+  c.joint = scenes::JointChainOptions::JointKind::kWeld;
+  c.angle = 0.5;
+  c.density = 2;
+  c.friction = 0.3;
+  c.end_mass = 100;
+  c.end_radius = 0.4;
+  scenes::add_joint_chain(&expected, c);
+  scenes::add_joint_chain(&expected, scenes::JointChainOptions{});
+  scenes::CardHouseOptions h;
+  h.origin = Vec2(7, 0);
+  h.levels = 4;
+  h.card_length = 0.9;
+  h.card_thickness = 0.03;
+  h.lean = 0.3;
+  h.friction = 0.8;
+  h.density = 0.5;
+  scenes::add_card_house(&expected, h);
+  EXPECT_EQ(diff_scene(expected, *scene), "");
+  ASSERT_EQ(scene->joints.size(), expected.joints.size());
+  EXPECT_EQ(scene->joints.size(), 9u + 20u);
+  for (size_t i = 0; i < expected.joints.size(); ++i) {
+    EXPECT_EQ(scene->joints[i].body_a, expected.joints[i].body_a);
+    EXPECT_EQ(scene->joints[i].body_b, expected.joints[i].body_b);
+    EXPECT_EQ(scene->joints[i].def.index(), expected.joints[i].def.index());
+  }
+  EXPECT_TRUE(build_world(*scene).ok());
+}
+
 TEST(SceneJson, BuildersMatchTheBuilderFunctions) {
   Result<SceneDef> scene = parse_scene_json(R"({"builders": [
     {"pyramid": {"base": 4, "boxSize": 0.5, "spacing": 0.6, "origin": {"x": 1, "y": 2},
@@ -675,6 +734,19 @@ TEST_P(SceneJsonErrors, NameTheField) {
 }
 
 const BadInput kBadInputs[] = {
+    {"ChainLinkTooShort", R"({"builders": [{"jointChain": {"linkLength": 0.2}}]})",
+     "builders[0].joint_chain.link_length: must be > link_width (got 0.2 <= 0.25)"},
+    {"ChainUnknownShape", R"({"builders": [{"jointChain": {"shape": 5}}]})",
+     "builders[0].joint_chain.shape: unknown link shape 5"},
+    {"ChainNegativeEndMass", R"({"builders": [{"jointChain": {"endMass": -1}}]})",
+     "builders[0].joint_chain.end_mass: must be >= 0 (got -1)"},
+    {"CardHouseLean", R"({"builders": [{"cardHouse": {"lean": 0.6}}]})",
+     "builders[0].card_house.lean: must be in [0.05, 0.45] (got 0.6)"},
+    {"CardHouseThickCards", R"({"builders": [{"cardHouse": {"cardThickness": 0.2}}]})",
+     "builders[0].card_house.card_thickness: must be <= card_length / 20 (got 0.2)"},
+    {"GroundCenterAndTop", R"({"builders": [{"ground": {"halfWidth": 1, "top": 2,
+      "center": {}}}]})",
+     "builders[0].ground.top: give center or top, not both"},
     {"NaNConstantForce", R"({"bodies": [{"constantForce": {"y": "NaN"}}]})",
      "bodies[0].constant_force.y: must be finite (got nan)"},
     {"NaNAttractorStrength", R"({"attractors": [{}, {"strength": "NaN"}]})",
