@@ -24,6 +24,9 @@ FULCRUM_PACKAGES=(
   python3-venv python3-setuptools python3-wheel
   # the Kubernetes manifests' check (tests/deploy/check_manifests.py)
   python3-yaml
+  # `fulcrum view`'s browser test (tests/cli/view_test.py): headless Chromium, driven over the
+  # DevTools protocol from /usr/bin/python3
+  chromium python3-websocket
 )
 
 fulcrum_install_packages() {

@@ -1,5 +1,6 @@
 #include "args.h"
 
+#include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <limits>
@@ -53,7 +54,7 @@ bool Args::parse(std::span<const std::string> argv, std::span<const FlagSpec> sp
       *error = "unknown flag '--" + name + "'";
       return false;
     }
-    if (out->values_.count(name) != 0) {
+    if (out->values_.count(name) != 0 && !spec->repeatable) {
       *error = "--" + name + " given more than once";
       return false;
     }
@@ -68,12 +69,15 @@ bool Args::parse(std::span<const std::string> argv, std::span<const FlagSpec> sp
     } else {
       // A following flag is not taken as the value: "--scene --ticks 5" is a missing value.
       if (i + 1 >= argv.size() || argv[i + 1].rfind("--", 0) == 0) {
-        *error = "--" + name + " needs a value (" + std::string(spec->value_name) + ")";
-        return false;
+        if (!spec->value_optional) {
+          *error = "--" + name + " needs a value (" + std::string(spec->value_name) + ")";
+          return false;
+        }
+      } else {
+        value = argv[++i];
       }
-      value = argv[++i];
     }
-    out->values_.emplace(name, std::move(value));
+    out->values_[name].push_back(std::move(value));
   }
   return true;
 }
@@ -81,7 +85,12 @@ bool Args::parse(std::span<const std::string> argv, std::span<const FlagSpec> sp
 std::optional<std::string> Args::value(std::string_view name) const {
   auto it = values_.find(std::string(name));
   if (it == values_.end()) return std::nullopt;
-  return it->second;
+  return it->second.front();
+}
+
+std::vector<std::string> Args::values(std::string_view name) const {
+  auto it = values_.find(std::string(name));
+  return it == values_.end() ? std::vector<std::string>() : it->second;
 }
 
 std::optional<int64_t> parse_int(std::string_view text, int64_t min, int64_t max,
@@ -109,6 +118,33 @@ std::optional<int64_t> parse_int(std::string_view text, int64_t min, int64_t max
     return std::nullopt;
   }
   return value;
+}
+
+std::optional<std::vector<BodyId>> parse_body_list(const std::string& text, std::string* error) {
+  std::vector<BodyId> out;
+  size_t start = 0;
+  while (start <= text.size()) {
+    const size_t comma = std::min(text.find(',', start), text.size());
+    const std::string item = text.substr(start, comma - start);
+    const size_t colon = item.find(':');
+    std::optional<int64_t> index = parse_int(item.substr(0, colon), 0, 0x7fffffff, error);
+    if (!index) {
+      *error = "'" + item + "': " + *error;
+      return std::nullopt;
+    }
+    int64_t generation = 1;
+    if (colon != std::string::npos) {
+      std::optional<int64_t> g = parse_int(item.substr(colon + 1), 1, 0xffffffffLL, error);
+      if (!g) {
+        *error = "'" + item + "': generation: " + *error;
+        return std::nullopt;
+      }
+      generation = *g;
+    }
+    out.push_back(BodyId{static_cast<int32_t>(*index), static_cast<uint32_t>(generation)});
+    start = comma + 1;
+  }
+  return out;
 }
 
 }  // namespace fulcrum::cli

@@ -15,6 +15,11 @@ std::string hex64(uint64_t value) {
   return World::hash_text(value);
 }
 
+std::string scene_error(const LoadedScene& loaded, const Status& status) {
+  const std::string& m = status.message();
+  return m.rfind(loaded.label, 0) == 0 ? m : loaded.label + ": " + m;
+}
+
 int Invocation::usage_error(const std::string& message) const {
   err << "fulcrum " << command.name << ": " << message << "\n"
       << "usage: fulcrum " << command.name << (command.usage.empty() ? "" : " ") << command.usage

@@ -65,6 +65,10 @@ struct LoadedScene {
 // false; returns true on success.
 bool load_scene_from_args(const Invocation& inv, LoadedScene* loaded, int* exit_code);
 
+// An error from building the loaded scene's world, named after the scene file as load errors
+// are ("scenes/x.json: joints[1].body_b: ...").
+std::string scene_error(const LoadedScene& loaded, const Status& status);
+
 // A state hash as 16 hex digits, the way every subcommand prints it.
 std::string hex64(uint64_t value);
 
@@ -85,5 +89,7 @@ int run_pause(const Invocation& inv);
 int run_query(const Invocation& inv);
 int run_stats(const Invocation& inv);
 int run_health(const Invocation& inv);
+int run_view(const Invocation& inv);
+int run_session(const Invocation& inv);
 
 }  // namespace fulcrum::cli

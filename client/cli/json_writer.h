@@ -40,6 +40,10 @@ class JsonWriter {
     write_key(key);
     out_ << (value ? "true" : "false");
   }
+  void null_field(std::string_view key) {
+    write_key(key);
+    out_ << "null";
+  }
   // A nested object: begin_object(key), fields, end_object().
   void begin_object(std::string_view key) {
     write_key(key);

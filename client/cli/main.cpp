@@ -16,14 +16,22 @@ constexpr FlagSpec kSimFlags[] = {
     kBuiltinFlag,
     {"ticks", "N", "number of ticks to step (>= 0)"},
     {"json", "", "print one JSON object instead of text"},
+    {"trace", "FILE", "write figures every --trace-every ticks: CSV, or JSON lines for *.jsonl"},
+    {"trace-every", "K", "with --trace: a row every K ticks (default 1)"},
+    {"trace-bodies", "I,J:G,...", "with --trace: bodies whose states each row carries (handles)"},
+    {"set", "NAME=VALUE", "override a world setting (scene.proto WorldSettings; repeatable)", true},
+    {"edits", "FILE",
+     "edit script (fulcrum.v1.EditScript JSON; bodies by handle or sceneIndex) applied as it runs"},
 };
 constexpr FlagSpec kExportFlags[] = {kSceneFlag, kBuiltinFlag};
 constexpr FlagSpec kReplayFlags[] = {
     kSceneFlag,
     kBuiltinFlag,
-    {"ticks", "N", "record: number of ticks to record"},
+    {"ticks", "N", "record: number of ticks to record; info: list ticks (all, T or FROM-TO)", false,
+     true},
     {"out", "FILE", "record: the replay file to write"},
     {"edits", "FILE", "record: edit script (Protobuf JSON of fulcrum.v1.EditScript)"},
+    {"set", "NAME=VALUE", "record: override a world setting, as sim --set (repeatable)", true},
     {"keyframes", "K", "record, start: a full snapshot every K ticks (default 60, 0: none)"},
     {"junit", "FILE", "verify: also write a JUnit XML report, one test case per replay"},
     kServerFlag,
@@ -91,13 +99,42 @@ constexpr FlagSpec kQueryFlags[] = {
     {"all", "", "ray: every hit along the ray, not only the closest"},
     {"category", "BITS", "the query's category bits (default 1; decimal or 0x hex)"},
     {"mask", "BITS", "the query's mask bits (default all)"}};
+constexpr FlagSpec kSessionFlags[] = {
+    kServerFlag,
+    kTokenFileFlag,
+    kDeadlineFlag,
+    kTlsCaFlag,
+    kTlsNameFlag,
+    {"players", "N", "open: at most N players (default 8)"},
+    {"input-delay", "D", "open: inputs are for ticks at least D ahead (default 0)"},
+    {"seal", "RULE", "open: on-step (clock or Step, default) or all-inputs (turn by turn)"},
+    {"missing", "RULE", "open: a missing input is none (default) or repeat (the last one)"},
+    {"bodies", "I,J:G,...", "bot: the bodies the bot takes and pushes"},
+    {"name", "NAME", "bot: the player's name (default bot)"},
+    {"seed", "S", "bot: seeds its random impulses (default 1)"},
+    {"impulse", "N_S", "bot: the largest impulse per axis, N s (default 1)"},
+    {"ticks", "N", "bot, watch: stop after N confirmed ticks (default: when the stream ends)"}};
+constexpr FlagSpec kViewFlags[] = {
+    kServerFlag,
+    kTokenFileFlag,
+    kDeadlineFlag,
+    kTlsCaFlag,
+    kTlsNameFlag,
+    {"listen", "HOST:PORT", "where the page is served (default 127.0.0.1:8080; port 0: any)"},
+    {"world", "ID", "the world the page opens with (default: the first one)"},
+    {"replay", "FILE", "play a replay file locally instead of following a server"}};
 
 constexpr Command kCommands[] = {
     {"sim", "build a scene, step it N ticks, print the state hash and accuracy figures",
-     "(--scene FILE | --builtin NAME) --ticks N [--json]",
+     "(--scene FILE | --builtin NAME) --ticks N [--json] [--set NAME=VALUE]...\n"
+     "       [--edits FILE] [--trace FILE [--trace-every K] [--trace-bodies I,J,...]]",
      "Steps the scene on one thread and reports the final tick, the 64-bit state hash, the\n"
-     "wall time per step and World::metrics() (penetration, energy, momentum, awake bodies,\n"
-     "contacts).",
+     "wall time per step (split into ticks with bodies awake and ticks with all asleep),\n"
+     "World::metrics() at the last tick, and over the whole run the largest penetration,\n"
+     "joint error, speed and energy drift (E - E0, E = kinetic + potential, potential = -m g.c\n"
+     "of each dynamic body's centre of mass), each with its tick. --set substeps=6 overrides a\n"
+     "setting by its proto field name (gravity.y for a nested one), range-checked as scene\n"
+     "files are. See docs/sim.md.",
      kSimFlags, 0, run_sim},
     {"scenes", "list the built-in scenes", "", "", {}, 0, run_scenes},
     {"export", "print a scene as JSON (explicit bodies, all settings)",
@@ -105,10 +142,10 @@ constexpr Command kCommands[] = {
      "The output is a scene file: `fulcrum sim --scene` on it gives the same state hash.",
      kExportFlags, 0, run_export},
     {"replay", "record, verify or describe a replay file",
-     "record (--scene FILE | --builtin NAME) --ticks N --out FILE [--edits FILE] "
+     "record (--scene FILE | --builtin NAME) --ticks N --out FILE [--edits FILE] [--set N=V]... "
      "[--keyframes K]\n"
      "       fulcrum replay verify (FILE | DIR)... [--junit REPORT.xml]\n"
-     "       fulcrum replay info FILE\n"
+     "       fulcrum replay info FILE [--ticks [all|T|FROM-TO]]\n"
      "       fulcrum replay start WORLD [--keyframes K]   (on a fulcrum-server)\n"
      "       fulcrum replay stop WORLD\n"
      "       fulcrum replay download (WORLD | NAME) --out FILE",
@@ -180,6 +217,28 @@ constexpr Command kCommands[] = {
      "checks one service (fulcrum.v1.Physics); default: the whole server. No token needed.\n"
      "The container image's HEALTHCHECK runs it.",
      kHealthFlags, 0, run_health},
+    {"session", "open a world as a multiplayer session, join it as a bot, or watch it",
+     "open WORLD [--players N] [--input-delay D] [--seal on-step|all-inputs]\n"
+     "                 [--missing none|repeat]\n"
+     "       fulcrum session bot WORLD --bodies I,J [--ticks N] [--seed S] [--impulse N_S]\n"
+     "       fulcrum session watch WORLD [--ticks N]",
+     "A bot joins as a player with the bodies named, sends seeded random impulses on them one\n"
+     "input per tick, and steps its own copy of the world with every confirmed tick, checking\n"
+     "the server's state hash at each (lockstep); `watch` does the same without playing. Both\n"
+     "print a line every 60 ticks and exit 1 at the first hash that differs. With --seal\n"
+     "on-step the world moves by `fulcrum run` or `fulcrum step`; with all-inputs it steps as\n"
+     "soon as every player's input for its next tick is in.",
+     kSessionFlags, 2, run_session},
+    {"view", "draw a world live in the browser, or play a replay file with a timeline",
+     "[--listen HOST:PORT] [--world ID]\n"
+     "       fulcrum view --replay FILE [--listen HOST:PORT]",
+     "Serves one page (open the printed URL) that draws a world from its frame stream: every\n"
+     "shape, joints as lines, sleeping bodies dimmed; a world picker, run, pause and step,\n"
+     "zoom (wheel) and pan (drag the background); dragging a body pulls it with a target joint\n"
+     "(destroyed on release). With --replay it re-steps the file locally: a timeline seeks any\n"
+     "tick and marks the first tick whose hash differs from the file's. Stops on SIGINT or\n"
+     "SIGTERM (exit 0). See docs/viewer.md.",
+     kViewFlags, 0, run_view},
 };
 
 void print_main_help(std::ostream& out) {

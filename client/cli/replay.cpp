@@ -1,4 +1,6 @@
 // fulcrum replay record|verify|info: replay files (proto/convert/replay.h).
+#include <google/protobuf/util/json_util.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -11,8 +13,10 @@
 
 #include "command.h"
 #include "edit_convert.h"
+#include "edit_script.h"
 #include "remote.h"
 #include "replay.h"
+#include "set_settings.h"
 #include "snapshot_convert.h"
 
 namespace fulcrum::cli {
@@ -33,35 +37,34 @@ int record(const Invocation& inv) {
     if (!parsed) return inv.usage_error("--keyframes: " + error);
     keyframes = *parsed;
   }
-  v1::EditScript script;
-  if (auto edits = inv.args.value("edits")) {
-    Result<v1::EditScript> loaded = load_edit_script(*edits);
-    if (!loaded.ok()) return inv.fail(loaded.status().message());
-    script = std::move(loaded).value();
-  }
+  Result<std::vector<SettingOverride>> overrides = parse_setting_overrides(inv.args.values("set"));
+  if (!overrides.ok()) return inv.usage_error(overrides.status().message());
   LoadedScene loaded;
   int exit_code = kExitOk;
   if (!load_scene_from_args(inv, &loaded, &exit_code)) return exit_code;
+  // The replay's initial snapshot carries the settings, so verify needs no --set.
+  if (Status st = apply_setting_overrides(*overrides, &loaded.scene.settings); !st.ok()) {
+    return inv.usage_error(st.message());
+  }
   Result<World> world = build_world(loaded.scene);
-  if (!world.ok()) return inv.fail(world.status().message());
+  if (!world.ok()) return inv.fail(scene_error(loaded, world.status()));
+  // Read against the world just built: scene indices name its bodies and joints.
+  std::optional<EditScriptRun> script;
+  if (auto edits = inv.args.value("edits")) {
+    Result<EditScriptRun> read = EditScriptRun::load(*edits, *world, *ticks);
+    if (!read.ok()) return inv.fail(read.status().message());
+    script = std::move(read).value();
+  }
 
   ReplayOptions options;
   options.keyframe_interval = static_cast<uint32_t>(keyframes);
   options.scene = loaded.label;
   auto writer = ReplayWriter::open(*out, *world, options);
   if (!writer.ok()) return inv.fail(writer.status().message());
-  int next = 0;
   for (int64_t i = 0; i < *ticks; ++i) {
     std::vector<v1::EditBatch> batches;
-    for (; next < script.entries_size() && script.entries(next).tick() <= world->tick(); ++next) {
-      const v1::TimedEdits& e = script.entries(next);
-      if (e.tick() < world->tick()) continue;
-      Result<EditOutcome> applied = apply_edit_batch(&*world, e.batch());
-      if (!applied.ok()) {
-        return inv.fail("edit script entry for tick " + std::to_string(e.tick()) + ": " +
-                        applied.status().message());
-      }
-      batches.push_back(e.batch());
+    if (script) {
+      if (Status st = script->apply_due(&*world, &batches); !st.ok()) return inv.fail(st.message());
     }
     world->step();
     Status st = (*writer)->record_tick(*world, batches);
@@ -241,7 +244,55 @@ int verify(const Invocation& inv, const std::vector<std::string>& args) {
   return all_ok ? kExitOk : kExitError;
 }
 
+// Which ticks `info --ticks` lists: "all" (or no value), "T" or "FROM-TO" (ticks after the step,
+// inclusive).
+struct TickRange {
+  int64_t from = 0;
+  int64_t to = std::numeric_limits<int64_t>::max();
+};
+
+std::optional<TickRange> parse_tick_range(const std::string& text, std::string* error) {
+  if (text == "all" || text.empty()) return TickRange{};
+  const size_t dash = text.find('-');
+  std::optional<int64_t> from =
+      parse_int(text.substr(0, dash), 0, std::numeric_limits<int64_t>::max(), error);
+  if (!from) return std::nullopt;
+  if (dash == std::string::npos) return TickRange{*from, *from};
+  std::optional<int64_t> to =
+      parse_int(text.substr(dash + 1), *from, std::numeric_limits<int64_t>::max(), error);
+  if (!to) return std::nullopt;
+  return TickRange{*from, *to};
+}
+
+// One line per tick: the tick reached, its state hash, whether a keyframe was kept there, and
+// each batch applied before the step that reached it, with the tick it applied at (the tick an
+// edit script names), as one line of Protobuf JSON.
+void list_ticks(const Invocation& inv, const ReplayContents& r, const TickRange& range) {
+  inv.out << "\ntick      state hash        keyframe  edits applied before the step\n";
+  google::protobuf::util::JsonPrintOptions options;
+  for (const v1::ReplayTick& t : r.ticks) {
+    if (t.tick() < range.from || t.tick() > range.to) continue;
+    std::string tick = std::to_string(t.tick());
+    tick.resize(std::max<size_t>(tick.size() + 1, 10), ' ');
+    inv.out << tick << hex64(t.state_hash()) << "  " << (t.has_keyframe() ? "yes" : "-");
+    for (int i = 0; i < t.edits_size(); ++i) {
+      std::string json;
+      (void)google::protobuf::util::MessageToJsonString(t.edits(i), &json, options);
+      inv.out << (i == 0 ? (t.has_keyframe() ? "       " : "         ")
+                         : "\n                                      ")
+              << "at tick " << t.tick() - 1 << ": " << json;
+    }
+    inv.out << "\n";
+  }
+}
+
 int info(const Invocation& inv, const std::string& path) {
+  std::optional<TickRange> list;
+  if (auto text = inv.args.value("ticks")) {
+    std::string error;
+    list = parse_tick_range(*text, &error);
+    if (!list) return inv.usage_error("--ticks: expected all, T or FROM-TO: " + error);
+  }
   Result<ReplayContents> replay = read_replay(path);
   if (!replay.ok()) return inv.fail(replay.status().message());
   const ReplayContents& r = *replay;
@@ -272,6 +323,7 @@ int info(const Invocation& inv, const std::string& path) {
             << "final hash  " << hex64(r.ticks.back().state_hash()) << "\n";
   }
   if (r.truncated) inv.out << "truncated   yes (cut off mid-write; read up to the last tick)\n";
+  if (list) list_ticks(inv, r, *list);
   return kExitOk;
 }
 
@@ -351,6 +403,7 @@ int run_replay(const Invocation& inv) {
     return inv.usage_error("missing action: record, verify, info, start, stop or download");
   }
   const std::string& action = pos[0];
+  if (action != "record" && inv.args.has("set")) return inv.usage_error("--set is for record only");
   if (action == "record") {
     if (pos.size() > 1) return inv.usage_error("record takes no FILE argument (use --out)");
     return record(inv);

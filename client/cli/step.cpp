@@ -10,35 +10,6 @@ namespace fulcrum::cli {
 
 namespace {
 
-// "3,7:2,12": body handles as INDEX or INDEX:GENERATION (generation 1 when left out, as for the
-// bodies of a new world's scene).
-std::optional<std::vector<BodyId>> parse_bodies(const std::string& text, std::string* error) {
-  std::vector<BodyId> out;
-  size_t start = 0;
-  while (start <= text.size()) {
-    const size_t comma = std::min(text.find(',', start), text.size());
-    const std::string item = text.substr(start, comma - start);
-    const size_t colon = item.find(':');
-    std::optional<int64_t> index = parse_int(item.substr(0, colon), 0, 0x7fffffff, error);
-    if (!index) {
-      *error = "'" + item + "': " + *error;
-      return std::nullopt;
-    }
-    int64_t generation = 1;
-    if (colon != std::string::npos) {
-      std::optional<int64_t> g = parse_int(item.substr(colon + 1), 1, 0xffffffffLL, error);
-      if (!g) {
-        *error = "'" + item + "': generation: " + *error;
-        return std::nullopt;
-      }
-      generation = *g;
-    }
-    out.push_back(BodyId{static_cast<int32_t>(*index), static_cast<uint32_t>(generation)});
-    start = comma + 1;
-  }
-  return out;
-}
-
 // One row per body per sample, every double with 17 significant digits (exact on reading).
 void write_csv_row(std::ostream& out, const client::TrajectorySample& s,
                    const client::BodyFrame& b) {
@@ -76,7 +47,7 @@ int run_step(const Invocation& inv) {
     trajectory.every_ticks = static_cast<uint32_t>(*k);
   }
   if (auto bodies = inv.args.value("bodies")) {
-    std::optional<std::vector<BodyId>> ids = parse_bodies(*bodies, &error);
+    std::optional<std::vector<BodyId>> ids = parse_body_list(*bodies, &error);
     if (!ids) return inv.usage_error("--bodies: " + error);
     if (!csv_path) return inv.usage_error("--bodies: only with --trajectory");
     trajectory.bodies = std::move(*ids);

@@ -63,6 +63,8 @@ Status from_grpc(const grpc::Status& s) {
       return Status(StatusCode::kResourceExhausted, s.error_message());
     case grpc::StatusCode::DATA_LOSS:
       return Status(StatusCode::kDataLoss, s.error_message());
+    case grpc::StatusCode::PERMISSION_DENIED:
+      return Status(StatusCode::kPermissionDenied, s.error_message());
     // Messages of these codes often come from gRPC itself ("failed to connect to all
     // addresses"), so they keep the code's name in front, as every other code does.
     case grpc::StatusCode::CANCELLED:
@@ -153,14 +155,16 @@ void vec_to(const Vec2& v, v1::Vec2* out) {
   out->set_y(v.y());
 }
 
+// One server stream read on its own thread, each message handed to `on_message` in order.
+template <typename Message>
 class GrpcSubscription final : public Subscription {
  public:
-  GrpcSubscription(v1::Physics::Stub* stub, const std::string& token,
-                   const v1::StreamFramesRequest& request,
-                   std::function<void(const Frame&)> on_frame)
-      : on_frame_(std::move(on_frame)) {
+  using Start = std::function<std::unique_ptr<grpc::ClientReader<Message>>(grpc::ClientContext*)>;
+  GrpcSubscription(const std::string& token, const Start& start,
+                   std::function<void(const Message&)> on_message)
+      : on_message_(std::move(on_message)) {
     if (!token.empty()) context_.AddMetadata("authorization", "Bearer " + token);
-    reader_ = stub->StreamFrames(&context_, request);
+    reader_ = start(&context_);
     thread_ = std::thread([this] { run(); });
   }
   ~GrpcSubscription() override {
@@ -185,19 +189,19 @@ class GrpcSubscription final : public Subscription {
 
  private:
   void run() {
-    v1::Frame frame;
-    while (reader_->Read(&frame)) {
+    Message message;
+    while (reader_->Read(&message)) {
       std::lock_guard<std::mutex> lock(callback_mu_);
       if (cancelled_) continue;  // drain until the cancel takes effect
-      on_frame_(frame_from(frame));
+      on_message_(message);
     }
     grpc::Status status = reader_->Finish();
     final_ = cancelled_ ? Status() : from_grpc(status);
   }
 
-  std::function<void(const Frame&)> on_frame_;
+  std::function<void(const Message&)> on_message_;
   grpc::ClientContext context_;
-  std::unique_ptr<grpc::ClientReader<v1::Frame>> reader_;
+  std::unique_ptr<grpc::ClientReader<Message>> reader_;
   std::atomic<bool> cancelled_{false};
   std::mutex callback_mu_;
   std::mutex join_mu_;
@@ -255,6 +259,15 @@ class GrpcClient final : public Client {
     Status st = unary(&v1::Physics::Stub::GetWorld, request, &reply);
     if (!st.ok()) return st;
     return summary_from(reply);
+  }
+
+  Result<v1::DescribeWorldReply> describe_world(uint64_t world) override {
+    v1::DescribeWorldRequest request;
+    request.set_world_id(world);
+    v1::DescribeWorldReply reply;
+    Status st = unary(&v1::Physics::Stub::DescribeWorld, request, &reply);
+    if (!st.ok()) return st;
+    return reply;
   }
 
   Status delete_world(uint64_t world) override {
@@ -440,8 +453,11 @@ class GrpcClient final : public Client {
                        : options.bodies == FrameBodies::kChanged ? v1::FRAME_BODIES_CHANGED
                                                                  : v1::FRAME_BODIES_NONE);
     request.set_quantized(options.quantized);
-    return std::unique_ptr<Subscription>(
-        new GrpcSubscription(stub_.get(), options_.token, request, std::move(on_frame)));
+    v1::Physics::Stub* stub = stub_.get();
+    return std::unique_ptr<Subscription>(new GrpcSubscription<v1::Frame>(
+        options_.token,
+        [stub, request](grpc::ClientContext* c) { return stub->StreamFrames(c, request); },
+        [on_frame = std::move(on_frame)](const v1::Frame& f) { on_frame(frame_from(f)); }));
   }
 
   Result<std::optional<RayHit>> ray_cast_closest(uint64_t world, const Vec2& origin,
@@ -598,6 +614,54 @@ class GrpcClient final : public Client {
       return data_loss("replay: checksum mismatch (the download is damaged)");
     }
     return out;
+  }
+
+  Result<v1::OpenSessionReply> open_session(uint64_t world,
+                                            const v1::SessionOptions& options) override {
+    v1::OpenSessionRequest request;
+    request.set_world_id(world);
+    *request.mutable_options() = options;
+    v1::OpenSessionReply reply;
+    Status st = unary(&v1::Physics::Stub::OpenSession, request, &reply);
+    if (!st.ok()) return st;
+    return reply;
+  }
+
+  Result<v1::JoinSessionReply> join_session(const v1::JoinSessionRequest& request) override {
+    v1::JoinSessionReply reply;
+    Status st = unary(&v1::Physics::Stub::JoinSession, request, &reply);
+    if (!st.ok()) return st;
+    return reply;
+  }
+
+  Result<v1::SendInputReply> send_input(uint64_t world, const v1::JoinSessionReply& player,
+                                        int64_t tick, const v1::EditBatch& input) override {
+    v1::SendInputRequest request;
+    request.set_world_id(world);
+    request.set_player_id(player.player_id());
+    request.set_player_secret(player.player_secret());
+    request.set_tick(tick);
+    *request.mutable_input() = input;
+    v1::SendInputReply reply;
+    Status st = unary(&v1::Physics::Stub::SendInput, request, &reply);
+    if (!st.ok()) return st;
+    return reply;
+  }
+
+  Result<std::unique_ptr<Subscription>> watch_session(
+      uint64_t world, std::function<void(const v1::SessionEvent&)> on_event,
+      const v1::JoinSessionReply* as_player) override {
+    v1::WatchSessionRequest request;
+    request.set_world_id(world);
+    if (as_player) {
+      request.set_player_id(as_player->player_id());
+      request.set_player_secret(as_player->player_secret());
+    }
+    v1::Physics::Stub* stub = stub_.get();
+    return std::unique_ptr<Subscription>(new GrpcSubscription<v1::SessionEvent>(
+        options_.token,
+        [stub, request](grpc::ClientContext* c) { return stub->WatchSession(c, request); },
+        std::move(on_event)));
   }
 
   Result<v1::ServerStats> get_stats() override {

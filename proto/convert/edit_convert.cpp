@@ -34,6 +34,88 @@ JointId joint(const v1::Handle& h) {
   return JointId{h.index(), h.generation()};
 }
 
+// What a handle in an edit names.
+enum class HandleKind { kBody, kShape, kJoint };
+
+// Calls visit(handle, kind, "field.path") for every handle the edit holds (an absent one reads
+// as the empty default); stops at the first error. Every edit kind that holds a handle is
+// listed here.
+template <typename Visit>
+Status for_each_handle(const v1::Edit& e, Visit visit) {
+  using K = HandleKind;
+  switch (e.kind_case()) {
+    case v1::Edit::kDestroyBody:
+      return visit(e.destroy_body(), K::kBody, "destroy_body");
+    case v1::Edit::kCreateShape:
+      return visit(e.create_shape().body(), K::kBody, "create_shape.body");
+    case v1::Edit::kDestroyShape:
+      return visit(e.destroy_shape(), K::kShape, "destroy_shape");
+    case v1::Edit::kCreateJoint:
+      FULCRUM_RETURN_IF_ERROR(visit(e.create_joint().body_a(), K::kBody, "create_joint.body_a"));
+      return visit(e.create_joint().body_b(), K::kBody, "create_joint.body_b");
+    case v1::Edit::kDestroyJoint:
+      return visit(e.destroy_joint(), K::kJoint, "destroy_joint");
+    case v1::Edit::kSetTransform:
+      return visit(e.set_transform().body(), K::kBody, "set_transform.body");
+    case v1::Edit::kSetVelocity:
+      return visit(e.set_velocity().body(), K::kBody, "set_velocity.body");
+    case v1::Edit::kApplyForce:
+      return visit(e.apply_force().body(), K::kBody, "apply_force.body");
+    case v1::Edit::kApplyImpulse:
+      return visit(e.apply_impulse().body(), K::kBody, "apply_impulse.body");
+    case v1::Edit::kApplyTorque:
+      return visit(e.apply_torque().body(), K::kBody, "apply_torque.body");
+    case v1::Edit::kSetMaterial:
+      return visit(e.set_material().shape(), K::kShape, "set_material.shape");
+    case v1::Edit::kSetFilter:
+      return visit(e.set_filter().shape(), K::kShape, "set_filter.shape");
+    case v1::Edit::kSetMotor:
+      return visit(e.set_motor().joint(), K::kJoint, "set_motor.joint");
+    case v1::Edit::kSetJointTarget:
+      return visit(e.set_joint_target().joint(), K::kJoint, "set_joint_target.joint");
+    case v1::Edit::kSetAwake:
+      return visit(e.set_awake().body(), K::kBody, "set_awake.body");
+    case v1::Edit::kSetConstantForce:
+      return visit(e.set_constant_force().body(), K::kBody, "set_constant_force.body");
+    case v1::Edit::kCreateBody:
+    case v1::Edit::kSetAttractors:
+    case v1::Edit::kSetGravity:
+    case v1::Edit::kSetSettings:
+    case v1::Edit::KIND_NOT_SET:
+      break;
+  }
+  return {};
+}
+
+// `h` must belong to a mutable edit; the default instance an absent handle reads as has no
+// scene_index and is never written.
+Status resolve_scene_index(const v1::Handle& handle, HandleKind kind, const std::string& path,
+                           const SceneHandles& scene) {
+  if (!handle.has_scene_index()) return {};
+  v1::Handle* h = const_cast<v1::Handle*>(&handle);
+  const std::string field = path + ".scene_index";
+  if (h->index() != 0 || h->generation() != 0) {
+    return invalid_argument(field + ": give scene_index or index and generation, not both");
+  }
+  const int64_t i = h->scene_index();
+  if (kind == HandleKind::kShape) {
+    return invalid_argument(field + ": shapes have no scene index (name a shape by its handle)");
+  }
+  const bool body = kind == HandleKind::kBody;
+  const int64_t count = static_cast<int64_t>(body ? scene.bodies.size() : scene.joints.size());
+  if (i < 0 || i >= count) {
+    return invalid_argument(field + ": no " + (body ? "body " : "joint ") + std::to_string(i) +
+                            " in the scene (" + std::to_string(count) +
+                            (body ? " bodies)" : " joints)"));
+  }
+  const int32_t index = body ? scene.bodies[i].index : scene.joints[i].index;
+  const uint32_t generation = body ? scene.bodies[i].generation : scene.joints[i].generation;
+  h->clear_scene_index();
+  h->set_index(index);
+  h->set_generation(generation);
+  return {};
+}
+
 Status exhausted(std::string message) {
   return Status(StatusCode::kResourceExhausted, std::move(message));
 }
@@ -114,6 +196,16 @@ Status apply_one(World* w, const v1::Edit& e, const std::string& path, const Edi
       return w->destroy_shape(shape(e.destroy_shape()));
     case v1::Edit::kCreateJoint: {
       const v1::CreateJoint& c = e.create_joint();
+      if (c.joint().has_target()) {
+        TargetJointDef def;
+        FULCRUM_RETURN_IF_ERROR(target_joint_from_proto(c.joint(), path + ".joint", &def));
+        def.body_a = body(c.body_a());
+        def.body_b = body(c.body_b());
+        Result<JointId> id = w->create_target_joint(def);
+        if (!id.ok()) return id.status();
+        out->joints.push_back(*id);
+        return {};
+      }
       v1::Joint j = c.joint();  // the scene form, between "body 0" and "body 1"
       j.set_body_a(0);
       j.set_body_b(1);
@@ -235,6 +327,18 @@ Result<EditOutcome> apply_edit_batch(World* world, const v1::EditBatch& batch,
                   "edits: " + std::to_string(batch.edits_size()) + " edits, at most " +
                       std::to_string(limits.max_edits) + " per batch (max_edits)");
   }
+  // Scene indices are for edit scripts, whose readers resolve them; a world does not know
+  // which of its bodies came from a scene.
+  for (int i = 0; i < batch.edits_size(); ++i) {
+    Status st = for_each_handle(batch.edits(i), [&](const v1::Handle& h, HandleKind,
+                                                    const char* field) {
+      if (!h.has_scene_index()) return Status();
+      return invalid_argument("edits[" + std::to_string(i) + "]." + field +
+                              ".scene_index: only edit scripts name bodies by scene index "
+                              "(fulcrum sim or replay record --edits resolve it); give the handle");
+    });
+    if (!st.ok()) return st;
+  }
   WorldSnapshot before = world->snapshot();
   const uint64_t work_before = world->edit_work();
   EditOutcome out;
@@ -270,19 +374,41 @@ Result<EditOutcome> apply_edit_batch(World* world, const v1::EditBatch& batch,
   return out;
 }
 
-Result<v1::EditScript> load_edit_script(const std::string& path) {
+SceneHandles scene_handles(const World& built) {
+  return SceneHandles{built.bodies(), built.joints()};
+}
+
+Result<v1::EditScript> load_edit_script(const std::string& path, const EditScriptOptions& options) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return not_found(path + ": cannot open the edit script");
   std::ostringstream text;
   text << in.rdbuf();
   v1::EditScript script;
-  google::protobuf::util::JsonParseOptions options;
-  options.ignore_unknown_fields = false;
-  auto status = google::protobuf::util::JsonStringToMessage(text.str(), &script, options);
+  google::protobuf::util::JsonParseOptions parse;
+  parse.ignore_unknown_fields = false;
+  auto status = google::protobuf::util::JsonStringToMessage(text.str(), &script, parse);
   if (!status.ok()) return invalid_argument(path + ": " + std::string(status.message()));
   for (int i = 0; i < script.entries_size(); ++i) {
-    if (script.entries(i).tick() < 0) {
-      return invalid_argument(path + ": entries[" + std::to_string(i) + "].tick: must be >= 0");
+    const std::string entry = path + ": entries[" + std::to_string(i) + "]";
+    const int64_t tick = script.entries(i).tick();
+    if (tick < 0) return invalid_argument(entry + ".tick: must be >= 0");
+    if (options.end_tick >= 0 && tick >= options.end_tick) {
+      return invalid_argument(entry + ".tick: " + std::to_string(tick) +
+                              " is not before the run's end at tick " +
+                              std::to_string(options.end_tick) +
+                              ": a batch applies before the step from its tick, so this one would "
+                              "never apply");
+    }
+    if (options.scene == nullptr) continue;
+    v1::EditBatch* batch = script.mutable_entries(i)->mutable_batch();
+    for (int j = 0; j < batch->edits_size(); ++j) {
+      // The handles belong to `script`, which is not const: resolving may write them.
+      FULCRUM_RETURN_IF_ERROR(for_each_handle(
+          batch->edits(j), [&](const v1::Handle& h, HandleKind kind, const char* field) {
+            return resolve_scene_index(h, kind,
+                                       entry + ".batch.edits[" + std::to_string(j) + "]." + field,
+                                       *options.scene);
+          }));
     }
   }
   std::stable_sort(

@@ -36,8 +36,29 @@ Result<EditOutcome> apply_edit_batch(World* world, const v1::EditBatch& batch,
 Result<EditOutcome> apply_edit_batch(World* world, const v1::EditBatch& batch,
                                      size_t max_edits = 100000);
 
-// Reads an edit script (Protobuf JSON of v1::EditScript) and checks that every tick is >= 0.
-// Entries come back sorted by tick, batches of the same tick in file order.
-Result<v1::EditScript> load_edit_script(const std::string& path);
+// The handles a world just built by build_world gave the scene's bodies and joints, in scene
+// order: what an edit script's scene_index names.
+struct SceneHandles {
+  std::vector<BodyId> bodies;
+  std::vector<JointId> joints;
+};
+SceneHandles scene_handles(const World& built);
+
+struct EditScriptOptions {
+  // Entries at this tick or later are refused: a batch applies before the step from its tick,
+  // so they would never apply in a run that ends at end_tick. -1: no end.
+  int64_t end_tick = -1;
+  // Resolves handles given by scene_index (Handle.scene_index); null: they stay, and
+  // apply_edit_batch refuses them.
+  const SceneHandles* scene = nullptr;
+};
+
+// Reads an edit script (Protobuf JSON of v1::EditScript) and checks that every tick is >= 0
+// (and before options.end_tick), and resolves scene indices to handles. Errors name the file
+// and the entry in file order ("pokes.json: entries[2].batch.edits[0].set_velocity.body.
+// scene_index: no body 300 in the scene (211 bodies)"). Entries come back sorted by tick,
+// batches of the same tick in file order.
+Result<v1::EditScript> load_edit_script(const std::string& path,
+                                        const EditScriptOptions& options = {});
 
 }  // namespace fulcrum

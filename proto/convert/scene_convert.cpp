@@ -993,6 +993,11 @@ Status joint_from_proto(const v1::Joint& p, const std::string& path, int body_co
     return fail(join(path, "body_b"), "no body " + std::to_string(p.body_b()) + " in the scene (" +
                                           std::to_string(body_count) + " bodies)");
   }
+  // build_world refuses it too; here the message can name the file it came from.
+  if (p.body_a() == p.body_b()) {
+    return fail(join(path, "body_b"),
+                "must differ from body_a (both are body " + std::to_string(p.body_a()) + ")");
+  }
   out->body_a = static_cast<int>(p.body_a());
   out->body_b = static_cast<int>(p.body_b());
   Vec2 anchor_a = Vec2::Zero(), anchor_b = Vec2::Zero();
@@ -1158,6 +1163,9 @@ Status joint_from_proto(const v1::Joint& p, const std::string& path, int body_co
     CONVERT_RETURN_IF_ERROR(read_opt(join(where, "correction_factor"), r.has_correction_factor(),
                                      r.correction_factor(), Range::kUnit, &def.correction_factor));
     out->def = def;
+  } else if (p.has_target()) {
+    return fail(join(path, "target"),
+                "a target joint is created by an edit (CreateJoint), not by a scene");
   } else {
     return fail(path, "needs a kind (distance, revolute, weld, prismatic, wheel or motor)");
   }
@@ -1431,6 +1439,32 @@ Status scene_attractor_from_proto(const v1::Attractor& p, const std::string& pat
 }
 void scene_attractor_to_proto(const AttractorDef& a, v1::Attractor* out) {
   attractor_to_proto(a, out);
+}
+
+Status target_joint_from_proto(const v1::Joint& p, const std::string& path, TargetJointDef* def) {
+  if (p.has_local_anchor_a()) {
+    return fail(join(path, "local_anchor_a"),
+                "a target joint has no anchor on body A (use target.target)");
+  }
+  CONVERT_RETURN_IF_ERROR(read_opt_vec(join(path, "local_anchor_b"), p.has_local_anchor_b(),
+                                       p.local_anchor_b(), &def->local_anchor_b));
+  const v1::TargetJoint& t = p.target();
+  const std::string where = join(path, "target");
+  CONVERT_RETURN_IF_ERROR(
+      read_opt_vec(join(where, "target"), t.has_target(), t.target(), &def->target));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(where, "max_force"), t.has_max_force(), t.max_force(),
+                                   Range::kNonNegative, &def->max_force));
+  CONVERT_RETURN_IF_ERROR(
+      read_opt(join(where, "hertz"), t.has_hertz(), t.hertz(), Range::kPositive, &def->hertz));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(where, "damping_ratio"), t.has_damping_ratio(),
+                                   t.damping_ratio(), Range::kNonNegative, &def->damping_ratio));
+  Status s = validate_target_joint_def(*def);
+  if (!s.ok()) {
+    std::string msg = s.message();
+    if (msg.rfind("joint.", 0) == 0) msg = msg.substr(6);
+    return invalid_argument(where + "." + msg);
+  }
+  return Status::ok_status();
 }
 
 #undef CONVERT_RETURN_IF_ERROR

@@ -49,5 +49,7 @@ Status scene_attractor_from_proto(const v1::Attractor& p, const std::string& pat
                                   AttractorDef* out);
 // Every field written.
 void scene_attractor_to_proto(const AttractorDef& a, v1::Attractor* out);
+// A Joint whose kind is `target` (edits only), without its bodies.
+Status target_joint_from_proto(const v1::Joint& p, const std::string& path, TargetJointDef* def);
 
 }  // namespace fulcrum

@@ -41,6 +41,8 @@ grpc::Status to_grpc_status(const Status& status) {
       return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED, status.message());
     case StatusCode::kUnavailable:
       return grpc::Status(grpc::StatusCode::UNAVAILABLE, status.message());
+    case StatusCode::kPermissionDenied:
+      return grpc::Status(grpc::StatusCode::PERMISSION_DENIED, status.message());
     case StatusCode::kInternal:
       break;
   }
@@ -372,6 +374,16 @@ grpc::Status PhysicsService::GetWorld(grpc::ServerContext* context,
   auto session = registry_->find(request->world_id());
   if (!session.ok()) return to_grpc_status(session.status());
   (*session)->info(reply);
+  return grpc::Status::OK;
+}
+
+grpc::Status PhysicsService::DescribeWorld(grpc::ServerContext* context,
+                                           const v1::DescribeWorldRequest* request,
+                                           v1::DescribeWorldReply* reply) {
+  FULCRUM_ADMIT_CALL(context);
+  auto session = registry_->find(request->world_id());
+  if (!session.ok()) return to_grpc_status(session.status());
+  (*session)->describe(reply);
   return grpc::Status::OK;
 }
 
@@ -728,6 +740,151 @@ grpc::Status PhysicsService::RestoreSnapshotStream(
     return refuse(grpc::StatusCode::DATA_LOSS, "snapshot: the bytes are not a SnapshotFile");
   }
   return restore(world_id, name, file, reply);
+}
+
+// --- Multiplayer sessions ---------------------------------------------------------------------
+
+template <typename Request, typename Reply>
+grpc::Status PhysicsService::on_world(grpc::ServerContext* context, const Request& request,
+                                      Reply* reply,
+                                      Status (Session::*method)(const Request&, Reply*)) {
+  FULCRUM_ADMIT_CALL(context);
+  auto session = registry_->find(request.world_id());
+  if (!session.ok()) return to_grpc_status(session.status());
+  return to_grpc_status(((**session).*method)(request, reply));
+}
+
+grpc::Status PhysicsService::OpenSession(grpc::ServerContext* context,
+                                         const v1::OpenSessionRequest* request,
+                                         v1::OpenSessionReply* reply) {
+  return on_world(context, *request, reply, &Session::open_session);
+}
+
+grpc::Status PhysicsService::JoinSession(grpc::ServerContext* context,
+                                         const v1::JoinSessionRequest* request,
+                                         v1::JoinSessionReply* reply) {
+  return on_world(context, *request, reply, &Session::join_session);
+}
+
+grpc::Status PhysicsService::SendInput(grpc::ServerContext* context,
+                                       const v1::SendInputRequest* request,
+                                       v1::SendInputReply* reply) {
+  return on_world(context, *request, reply, &Session::send_input);
+}
+
+namespace {
+
+// One WatchSession call: every event in order, none skipped. Events queue while a write is in
+// flight; a watcher more than SessionWatcher::kMaxBehind events behind is ended with
+// RESOURCE_EXHAUSTED (it watches again, from a new start). Alive until gRPC calls OnDone.
+class SessionStream final : public grpc::ServerWriteReactor<v1::SessionEvent>,
+                            public SessionWatcher,
+                            public std::enable_shared_from_this<SessionStream> {
+ public:
+  SessionStream(std::shared_ptr<Session> session, uint32_t player_id)
+      : session_(std::move(session)), player_id_(player_id) {}
+
+  static SessionStream* start(std::shared_ptr<Session> session,
+                              const v1::WatchSessionRequest& request) {
+    auto stream = std::make_shared<SessionStream>(session, request.player_id());
+    stream->self_ = stream;
+    Status watching = session->watch_session(stream, request.player_id(), request.player_secret());
+    if (!watching.ok()) {
+      stream->player_id_ = 0;  // not counted present
+      stream->end(to_grpc_status(watching));
+    }
+    return stream.get();
+  }
+
+  void offer(std::shared_ptr<const v1::SessionEvent> event) override {
+    std::unique_lock<std::mutex> lock(mu_);
+    if (closing_) return;
+    if (queue_.size() >= kMaxBehind) {
+      lock.unlock();
+      end(grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                       "this watcher fell more than " + std::to_string(kMaxBehind) +
+                           " confirmed ticks behind: watch again to start from the world as it "
+                           "is then"));
+      return;
+    }
+    queue_.push_back(std::move(event));
+    if (writing_) return;
+    writing_ = true;
+    const v1::SessionEvent* next = queue_.front().get();
+    lock.unlock();
+    StartWrite(next);
+  }
+
+  void close(const Status& status) override { end(to_grpc_status(status)); }
+
+  void OnWriteDone(bool ok) override {
+    std::unique_lock<std::mutex> lock(mu_);
+    queue_.pop_front();
+    if (!ok && !closing_) {
+      closing_ = true;
+      final_ = grpc::Status(grpc::StatusCode::CANCELLED, "the stream was broken");
+    }
+    if (closing_ || queue_.empty()) {
+      writing_ = false;
+      if (closing_ && !finished_) {
+        finished_ = true;
+        lock.unlock();
+        Finish(final_);
+      }
+      return;
+    }
+    const v1::SessionEvent* next = queue_.front().get();
+    lock.unlock();
+    StartWrite(next);
+  }
+
+  void OnCancel() override {
+    end(grpc::Status(grpc::StatusCode::CANCELLED, "the client cancelled the watch"));
+  }
+
+  void OnDone() override {
+    session_->unwatch_session(this, player_id_);
+    std::shared_ptr<SessionStream> last = std::move(self_);  // may destroy this on return
+  }
+
+ private:
+  void end(grpc::Status status) {
+    std::unique_lock<std::mutex> lock(mu_);
+    if (closing_) return;
+    closing_ = true;
+    final_ = std::move(status);
+    if (writing_ || finished_) return;  // OnWriteDone finishes
+    finished_ = true;
+    lock.unlock();
+    Finish(final_);
+  }
+
+  const std::shared_ptr<Session> session_;
+  uint32_t player_id_ = 0;  // watching as this player (0: a spectator)
+  std::shared_ptr<SessionStream> self_;
+  std::mutex mu_;
+  std::deque<std::shared_ptr<const v1::SessionEvent>> queue_;  // front: in flight when writing_
+  bool writing_ = false;
+  bool closing_ = false;
+  bool finished_ = false;
+  grpc::Status final_;
+};
+
+}  // namespace
+
+grpc::ServerWriteReactor<v1::SessionEvent>* PhysicsService::WatchSession(
+    grpc::CallbackServerContext* context, const v1::WatchSessionRequest* request) {
+  grpc::Status auth = check_token(*context);
+  if (!auth.ok()) return new Refused<v1::SessionEvent>("WatchSession", auth);
+  if (shutting_down_) {
+    return new Refused<v1::SessionEvent>(
+        "WatchSession", grpc::Status(grpc::StatusCode::UNAVAILABLE, "the server is stopping"));
+  }
+  auto session = registry_->find(request->world_id());
+  if (!session.ok()) {
+    return new Refused<v1::SessionEvent>("WatchSession", to_grpc_status(session.status()));
+  }
+  return SessionStream::start(*session, *request);
 }
 
 namespace {

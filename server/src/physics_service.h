@@ -23,8 +23,9 @@ grpc::Status to_grpc_status(const Status& status);
 class FrameSender;
 
 class PhysicsService final
-    : public v1::Physics::WithCallbackMethod_DownloadReplay<
-          v1::Physics::WithRawCallbackMethod_StreamFrames<v1::Physics::Service>> {
+    : public v1::Physics::WithCallbackMethod_WatchSession<
+          v1::Physics::WithCallbackMethod_DownloadReplay<
+              v1::Physics::WithRawCallbackMethod_StreamFrames<v1::Physics::Service>>> {
  public:
   // An empty token turns authentication off.
   PhysicsService(Registry* registry, std::string token);
@@ -36,6 +37,8 @@ class PhysicsService final
                           v1::ListWorldsReply* reply) override;
   grpc::Status GetWorld(grpc::ServerContext* context, const v1::GetWorldRequest* request,
                         v1::WorldInfo* reply) override;
+  grpc::Status DescribeWorld(grpc::ServerContext* context, const v1::DescribeWorldRequest* request,
+                             v1::DescribeWorldReply* reply) override;
   grpc::Status DeleteWorld(grpc::ServerContext* context, const v1::DeleteWorldRequest* request,
                            v1::DeleteWorldReply* reply) override;
   grpc::Status ApplyEdits(grpc::ServerContext* context, const v1::ApplyEditsRequest* request,
@@ -78,6 +81,16 @@ class PhysicsService final
                                      grpc::ServerReader<v1::RestoreSnapshotChunk>* reader,
                                      v1::RestoreSnapshotReply* reply) override;
 
+  // Multiplayer sessions (session.proto, game_session.h).
+  grpc::Status OpenSession(grpc::ServerContext* context, const v1::OpenSessionRequest* request,
+                           v1::OpenSessionReply* reply) override;
+  grpc::Status JoinSession(grpc::ServerContext* context, const v1::JoinSessionRequest* request,
+                           v1::JoinSessionReply* reply) override;
+  grpc::Status SendInput(grpc::ServerContext* context, const v1::SendInputRequest* request,
+                         v1::SendInputReply* reply) override;
+  grpc::ServerWriteReactor<v1::SessionEvent>* WatchSession(
+      grpc::CallbackServerContext* context, const v1::WatchSessionRequest* request) override;
+
   // New streams are refused and open ones end with UNAVAILABLE.
   void begin_shutdown();
   // The grace period is over: calls still running stop at their next check (between ticks,
@@ -92,6 +105,10 @@ class PhysicsService final
   // `world_id`, or a fork named `name` when it is 0.
   grpc::Status restore(uint64_t world_id, const std::string& name, const v1::SnapshotFile& file,
                        v1::RestoreSnapshotReply* reply);
+  // Admits the call, finds its world (request.world_id()) and runs `method` on it.
+  template <typename Request, typename Reply>
+  grpc::Status on_world(grpc::ServerContext* context, const Request& request, Reply* reply,
+                        Status (Session::*method)(const Request&, Reply*));
   // The limits the registry's worlds are built under.
   WorkLimits work_limits(const grpc::ServerContext* context) const;
 

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <utility>
 
+#include "describe_convert.h"
 #include "edit_convert.h"
 #include "fulcrum/scene.h"
 #include "scene_convert.h"
@@ -73,7 +74,10 @@ void Session::refresh_summary_locked(uint64_t state_hash) {
 }
 
 Status Session::tick_locked() {
+  GameSession::Sealed sealed;
+  if (game_) sealed = seal_inputs_locked();
   if (Status refused = world_.try_step(); !refused.ok()) {
+    if (game_) game_->carry(std::move(sealed));
     return Status(refused.code(),
                   "world " + std::to_string(id_) + ": " + refused.message() +
                       " (max_contacts; overlapping shapes make contacts grow with the square of "
@@ -82,6 +86,19 @@ Status Session::tick_locked() {
   if (recorder_) {
     Status recorded = recorder_->after_tick(world_);
     if (!recorded.ok()) end_recording_locked(recorded.message());
+  }
+  if (game_) {
+    std::shared_ptr<const v1::SessionEvent> confirmed = game_->confirm(sealed, world_);
+    std::vector<std::shared_ptr<SessionWatcher>> due;
+    {
+      std::lock_guard<std::mutex> wl(session_watchers_mu_);
+      std::erase_if(session_watchers_,
+                    [](const std::weak_ptr<SessionWatcher>& w) { return w.expired(); });
+      for (const auto& w : session_watchers_) {
+        if (auto watcher = w.lock()) due.push_back(std::move(watcher));
+      }
+    }
+    for (auto& watcher : due) watcher->offer(confirmed);
   }
   publish_tick_locked();
   return {};
@@ -123,6 +140,7 @@ Status Session::apply_edits(const v1::EditBatch& batch, std::optional<int64_t> e
     Result<EditOutcome> outcome = apply_edit_batch(&world_, batch, limits);
     if (!outcome.ok()) return outcome.status().with_prefix("batch.");
     if (recorder_) recorder_->note_batch(batch);
+    if (game_) game_->note_owner_batch(batch);
     reply->set_tick(world_.tick());
     for (BodyId id : outcome->bodies) handle_to_proto(id.index, id.generation, reply->add_bodies());
     for (ShapeId id : outcome->shapes)
@@ -186,6 +204,12 @@ Status Session::step(uint32_t ticks, std::optional<int64_t> expected_tick, bool 
   return {};
 }
 
+void Session::describe(v1::DescribeWorldReply* reply) {
+  Hold hold(this);
+  describe_world_to_proto(world_, reply);
+  reply->set_world_id(id_);
+}
+
 void Session::snapshot(v1::GetSnapshotReply* reply) {
   Hold hold(this);
   reply->set_tick(world_.tick());
@@ -234,6 +258,11 @@ Status Session::restore(const WorldSnapshot& records, v1::RestoreSnapshotReply* 
       return failed_precondition("world " + std::to_string(id_) + " is recording replay " +
                                  recorder_->name() +
                                  ": a replay cannot hold a rollback; stop recording first");
+    }
+    if (game_) {
+      return failed_precondition("world " + std::to_string(id_) +
+                                 " is a multiplayer session: its players follow its ticks, so "
+                                 "it cannot be rolled back (fork it into a new world instead)");
     }
     FULCRUM_RETURN_IF_ERROR(world_.restore(records));  // its messages start "snapshot: "
     ++epoch_;
@@ -357,6 +386,17 @@ void Session::close_streams(const Status& status, bool shutting_down) {
     watchers_.clear();
   }
   for (auto& s : sinks) s->close(status, shutting_down);
+  std::vector<std::weak_ptr<SessionWatcher>> session_watchers;
+  {
+    std::lock_guard<std::mutex> wl(session_watchers_mu_);
+    session_watchers.swap(session_watchers_);
+  }
+  for (auto& w : session_watchers) {
+    if (auto watcher = w.lock()) {
+      watcher->close(shutting_down ? Status(StatusCode::kUnavailable, "the server is stopping")
+                                   : status);
+    }
+  }
 }
 
 void Session::publish_tick_locked() {

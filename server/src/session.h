@@ -22,6 +22,7 @@
 #include "fulcrum/v1/frames.pb.h"
 #include "fulcrum/v1/service.pb.h"
 #include "fulcrum/world.h"
+#include "game_session.h"
 #include "recorder.h"
 
 namespace fulcrum::server {
@@ -81,6 +82,8 @@ class Session : public std::enable_shared_from_this<Session> {
   Status step(uint32_t ticks, std::optional<int64_t> expected_tick, bool include_snapshot,
               const KeepGoing& keep_going, v1::StepReply* reply);
   void snapshot(v1::GetSnapshotReply* reply);
+  // Every body with its shapes and every joint (waits while the world is being stepped).
+  void describe(v1::DescribeWorldReply* reply);
 
   // StepTrajectory (trajectory.cpp): a Step in parts, so that the caller can send each part's
   // samples with the world free. The first part checks the request; each part holds the world
@@ -124,6 +127,19 @@ class Session : public std::enable_shared_from_this<Session> {
   // dropping the rest) unless an RPC holds the world. Returns when to wake next, or nullopt
   // when the world no longer runs.
   std::optional<SteadyClock::time_point> run_due_ticks(SteadyClock::time_point now);
+
+  // --- Multiplayer sessions (game_session.cpp) ---
+  Status open_session(const v1::OpenSessionRequest& request, v1::OpenSessionReply* reply);
+  Status join_session(const v1::JoinSessionRequest& request, v1::JoinSessionReply* reply);
+  // Holds the input for its tick; with SEAL_RULE_ALL_INPUTS and the world paused, then steps
+  // every tick whose inputs are all in.
+  Status send_input(const v1::SendInputRequest& request, v1::SendInputReply* reply);
+  // The watcher gets the world now, then every confirmed tick (FAILED_PRECONDITION when the
+  // world is not a session). As a player (id and secret checked) it marks the player present
+  // until unwatch_session.
+  Status watch_session(std::shared_ptr<SessionWatcher> watcher, uint32_t player_id,
+                       const std::string& secret);
+  void unwatch_session(const SessionWatcher* watcher, uint32_t player_id);
 
   // --- Replays on the server (recorder.cpp) ---
   Status start_recording(ReplayStore* store, std::optional<uint32_t> keyframe_interval,
@@ -176,6 +192,11 @@ class Session : public std::enable_shared_from_this<Session> {
   void runtime_to_proto_locked(v1::WorldInfo* out) const;
   // Closes the recording after a failed write, keeping the error for WorldInfo.
   void end_recording_locked(const std::string& error);
+  // A session's part of a tick, with mu_ held: seals the tick's inputs and applies the
+  // players' batches (one the world refuses is dropped and its player counted missing).
+  GameSession::Sealed seal_inputs_locked();
+  // SEAL_RULE_ALL_INPUTS on a paused world: steps every tick whose inputs are all in.
+  void step_complete_ticks_locked();
 
   const uint64_t id_;
   const std::string name_;
@@ -193,6 +214,7 @@ class Session : public std::enable_shared_from_this<Session> {
   int64_t last_replay_start_tick_ = 0;
   int64_t last_replay_ticks_ = 0;
   std::string recording_error_;
+  std::unique_ptr<GameSession> game_;             // set once by OpenSession; guarded by mu_
   std::mutex run_mode_mu_;                        // one SetRunMode at a time (taken before mu_)
   std::atomic<int64_t> busy_retries_pending_{0};  // wakes that found the world held
 
@@ -202,14 +224,11 @@ class Session : public std::enable_shared_from_this<Session> {
   std::mutex watchers_mu_;  // guards watchers_; taken after mu_ when both are held
   std::vector<Watcher> watchers_;
   std::atomic<bool> any_need_first_{false};
-};
 
-inline Status failed_precondition(std::string message) {
-  return Status(StatusCode::kFailedPrecondition, std::move(message));
-}
-inline Status resource_exhausted(std::string message) {
-  return Status(StatusCode::kResourceExhausted, std::move(message));
-}
+  // WatchSession streams; taken after mu_ when both are held.
+  std::mutex session_watchers_mu_;
+  std::vector<std::weak_ptr<SessionWatcher>> session_watchers_;
+};
 
 // FAILED_PRECONDITION naming the world's tick when `expected` is set and differs from it.
 Status check_expected_tick(std::optional<int64_t> expected, int64_t tick);

@@ -6,7 +6,9 @@
 // a changed scenario) means updating the literals below: build, run
 //   build/bin/fulcrum_golden
 // and copy each line's two hashes into kPinned (the line is "name ticks final combined"). Say
-// in the commit message why the hashes changed. Changing them by accident (a refactor that
+// in the commit message why the hashes changed, and bump kDeterminismFingerprint
+// (fulcrum/fingerprint.h) with kFingerprint and kResults below: clients of another build are
+// then told they differ instead of desynchronising. Changing them by accident (a refactor that
 // should not alter results) is exactly what this test exists to catch: find the cause instead.
 #include <gtest/gtest.h>
 
@@ -14,7 +16,9 @@
 #include <cstdio>
 #include <ostream>
 #include <string>
+#include <vector>
 
+#include "fulcrum/fingerprint.h"
 #include "golden_scenes.h"
 
 namespace fulcrum::golden {
@@ -38,6 +42,10 @@ constexpr Pinned kPinned[] = {
     {"lanes",      240, 0xe601e1ae6c51701cull, 0x4314bbd9a6accf2full},
 };
 // clang-format on
+
+// The fingerprint these results carry, and a hash over kPinned that ties the two together.
+constexpr char kFingerprint[] = "fulcrum-results-2";
+constexpr uint64_t kResults = 0xde89548df08137c7ull;
 
 // gtest prints a failing parameter with this (rather than its bytes).
 void PrintTo(const Pinned& pinned, std::ostream* os) {
@@ -64,6 +72,14 @@ TEST(GoldenTest, EveryScenarioIsPinned) {
     EXPECT_STREQ(kPinned[i].name, golden_scenarios()[i].name);
     EXPECT_EQ(kPinned[i].ticks, golden_scenarios()[i].ticks) << kPinned[i].name;
   }
+}
+
+TEST(GoldenTest, TheFingerprintNamesThesePinnedResults) {
+  std::vector<uint64_t> all;
+  for (const Pinned& p : kPinned) all.push_back(p.combined_hash);
+  EXPECT_EQ(hex(combine_hashes(all)), hex(kResults))
+      << "kPinned changed: bump kDeterminismFingerprint, then set kFingerprint and kResults";
+  EXPECT_STREQ(kDeterminismFingerprint, kFingerprint);
 }
 
 class GoldenHashTest : public testing::TestWithParam<Pinned> {};

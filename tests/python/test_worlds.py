@@ -191,3 +191,22 @@ def test_worlds_lists_and_delete_removes(client):
     with pytest.raises(fulcrum.FulcrumError) as error:
         world.info()
     assert error.value.code == grpc.StatusCode.NOT_FOUND
+
+
+def test_describe_lists_bodies_with_their_shapes_and_joints(client):
+    scene = ball_scene()
+    scene["bodies"].insert(0, {"shapes": [{"box": {"halfWidth": 5, "halfHeight": 0.5}}]})
+    scene["joints"] = [{"bodyA": 0, "bodyB": 1, "localAnchorA": {"x": 0, "y": 101},
+                        "distance": {"length": 1}}]
+    with client.create_world(scene) as world:
+        world.step(3)
+        d = world.describe()
+        assert (d.tick, d.state_hash) == (3, world.state_hash)
+        assert [b.body.type for b in d.bodies] == [fulcrum.scene_pb2.BODY_TYPE_STATIC,
+                                                   fulcrum.scene_pb2.BODY_TYPE_DYNAMIC]
+        ground, ball = d.bodies
+        assert [(v.x, v.y) for v in ground.body.shapes[0].polygon.vertices] == [
+            (-5, -0.5), (5, -0.5), (5, 0.5), (-5, 0.5)]
+        assert ball.body.shapes[0].circle.radius == 0.5
+        assert len(d.joints) == 1 and d.joints[0].body_b.index == ball.handle.index
+        assert (d.joints[0].local_anchor_a.x, d.joints[0].local_anchor_a.y) == (0, 101)

@@ -132,6 +132,30 @@ if "$F" step 2 1 --trajectory - --bodies 3,x --server "$ADDR" 2>"$WORK/err.txt";
 fi
 grep -q -- "--bodies: 'x'" "$WORK/err.txt" || fail "bad bodies: $(cat "$WORK/err.txt")"
 
+# A multiplayer session turn by turn: two bots push their own boxes and check every confirmed
+# hash on their own copy of the world, a spectator follows; the bot that stops first leaves, and
+# the other goes on alone.
+"$F" create --server "$ADDR" --scene "$SCENES/pyramid.json" >/dev/null
+"$F" session open 3 --players 2 --seal all-inputs --input-delay 2 --server "$ADDR" |
+  grep -q "^world 3: a session from tick 0, at most 2 players" || fail "session open"
+"$F" session watch 3 --ticks 90 --server "$ADDR" >"$WORK/sw.out" 2>"$WORK/sw.err" &
+SW=$!
+"$F" session bot 3 --bodies 210 --ticks 60 --server "$ADDR" >"$WORK/b1.out" 2>"$WORK/b1.err" &
+B1=$!
+"$F" session bot 3 --bodies 209 --ticks 90 --seed 2 --server "$ADDR" >"$WORK/b2.out" 2>&1 ||
+  fail "bot 2: $(cat "$WORK/b2.out")"
+wait "$B1" || fail "bot 1: $(cat "$WORK/b1.out" "$WORK/b1.err")"
+wait "$SW" || fail "session watch: $(cat "$WORK/sw.out" "$WORK/sw.err")"
+grep -q "every state hash matched" "$WORK/b1.out" || fail "bot 1: $(cat "$WORK/b1.out")"
+grep -q "^player [12]: 90 ticks confirmed, every state hash matched" "$WORK/b2.out" ||
+  fail "bot 2: $(cat "$WORK/b2.out")"
+grep -q "^world 3: 90 ticks confirmed from tick 0, every state hash matched" "$WORK/sw.out" ||
+  fail "session watch: $(cat "$WORK/sw.out")"
+if "$F" session bot 3 --bodies 210 --server "$ADDR" 2>"$WORK/err.txt"; then
+  fail "a third player joined a session of two"
+fi
+grep -q "the session has its 2 players" "$WORK/err.txt" || fail "third: $(cat "$WORK/err.txt")"
+
 # SIGTERM with a watcher attached: the stream ends, the server exits 0.
 "$F" watch 1 --server "$ADDR" >"$WORK/watch.out" 2>"$WORK/watch.err" &
 WATCH=$!

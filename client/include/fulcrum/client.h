@@ -16,7 +16,9 @@
 
 #include "fulcrum/scene.h"
 #include "fulcrum/status.h"
+#include "fulcrum/v1/describe.pb.h"
 #include "fulcrum/v1/edit.pb.h"
+#include "fulcrum/v1/session.pb.h"
 #include "fulcrum/v1/stats.pb.h"
 #include "fulcrum/world.h"
 
@@ -214,6 +216,9 @@ class Client {
   virtual Result<WorldSummary> create_world_json(std::string_view json) = 0;
   virtual Result<std::vector<WorldSummary>> list_worlds() = 0;
   virtual Result<WorldSummary> get_world(uint64_t world) = 0;
+  // Every live body with its shapes (in the body frame) and every joint, at the world's tick
+  // (describe.proto); NOT_FOUND for an unknown world.
+  virtual Result<v1::DescribeWorldReply> describe_world(uint64_t world) = 0;
   virtual Status delete_world(uint64_t world) = 0;
 
   virtual Result<EditResult> apply_edits(uint64_t world, const v1::EditBatch& batch,
@@ -275,6 +280,19 @@ class Client {
 
   // The server's counters (stats.proto).
   virtual Result<v1::ServerStats> get_stats() = 0;
+
+  // Multiplayer sessions (session.proto; LockstepWorld in fulcrum/lockstep.h follows one).
+  virtual Result<v1::OpenSessionReply> open_session(uint64_t world,
+                                                    const v1::SessionOptions& options) = 0;
+  // request.fingerprint: fulcrum::kDeterminismFingerprint for a client that simulates.
+  virtual Result<v1::JoinSessionReply> join_session(const v1::JoinSessionRequest& request) = 0;
+  virtual Result<v1::SendInputReply> send_input(uint64_t world, const v1::JoinSessionReply& player,
+                                                int64_t tick, const v1::EditBatch& input) = 0;
+  // The world at the start, then every confirmed tick, on the subscription's thread. With
+  // `as_player` (a join's reply) the player counts as present while the watch is open.
+  virtual Result<std::unique_ptr<Subscription>> watch_session(
+      uint64_t world, std::function<void(const v1::SessionEvent&)> on_event,
+      const v1::JoinSessionReply* as_player = nullptr) = 0;
 
   // The standard gRPC health check (grpc.health.v1.Health/Check) for `service` ("" for the
   // whole server, or "fulcrum.v1.Physics"): true when SERVING, false when NOT_SERVING (a

@@ -25,6 +25,7 @@ from .errors import FulcrumError
 from .frames import BodyState, Frame, FrameStream
 from .replays import Replay, ReplayReport
 from .scenes import load_scene, scene_from_dict, scene_from_json, scene_to_dict
+from .sessions import Player, SessionEvents
 from .snapshots import Snapshot, fnv1a64
 from .trajectories import Trajectory
 from .types import EditResult, Handle, RayHit, ShapeHit, StepResult
@@ -35,7 +36,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Batch", "BodyState", "CHANNEL_OPTIONS", "Client", "EditResult", "Frame", "FrameStream",
-    "FulcrumError", "Handle", "RayHit", "Replay", "ReplayReport", "ShapeHit", "Snapshot",
+    "FulcrumError", "Handle", "Player", "SessionEvents", "RayHit", "Replay", "ReplayReport", "ShapeHit", "Snapshot",
     "StepResult", "Trajectory", "World", "connect", "edit_pb2", "fnv1a64", "frames_pb2", "load_scene",
     "scene_from_dict", "scene_from_json", "scene_pb2", "scene_to_dict", "service_pb2",
     "snapshot_pb2",

@@ -3,11 +3,11 @@
 from .edits import Batch, EditMethods, edit_result, message_of, request as edits_request
 from .errors import invalid_argument
 from .frames import FrameStream, frames_request
-from . import snapshots
+from . import sessions, snapshots
 from .snapshots import Snapshot
 from .trajectories import step_trajectory
 from .types import Handle, RayHit, ShapeHit, StepResult, to_vec2, vec_tuple
-from .v1 import edit_pb2, query_pb2, runtime_pb2, service_pb2
+from .v1 import describe_pb2, edit_pb2, query_pb2, runtime_pb2, service_pb2
 
 
 def _query_filter(category_bits, mask_bits):
@@ -63,6 +63,13 @@ class World(EditMethods):
         recording."""
         return self.client._call("GetWorld", service_pb2.GetWorldRequest(world_id=self.id))
 
+    def describe(self):
+        """A fulcrum.v1.DescribeWorldReply: every live body as a scene Body (shapes in the
+        body's frame) with its handles, every joint with its anchors, the tick and state hash
+        (describe.proto)."""
+        return self.client._call("DescribeWorld",
+                                 describe_pb2.DescribeWorldRequest(world_id=self.id))
+
     @property
     def tick(self):
         return self.info().tick
@@ -97,6 +104,33 @@ class World(EditMethods):
         default."""
         return step_trajectory(self, _ticks(ticks), every, bodies, include_start,
                                expected_tick, timeout)
+
+    # --- Multiplayer sessions (docs/multiplayer.md) ---------------------------------------------
+
+    def open_session(self, max_players=0, input_delay=0, missing="none", seal="on_step",
+                     max_input_lead=0):
+        """Opens this world as a session (once). seal: "on_step" (ticks are sealed when the
+        world steps: run() or step()) or "all_inputs" (also as soon as every present player's
+        input for the next tick is in, while paused); missing: "none" or "repeat_last".
+        Returns the OpenSessionReply (tick, options with defaults, the server's fingerprint)."""
+        return sessions.open_session(self, max_players, input_delay, missing, seal,
+                                     max_input_lead)
+
+    def join(self, bodies=(), joints=(), name="", fingerprint=""):
+        """Joins as a player owning `bodies` and `joints` (Handles, pairs or scene indices);
+        returns a Player (id, secret, first_input_tick)."""
+        return sessions.join(self, bodies, joints, name, fingerprint)
+
+    def send_input(self, player, tick, edits):
+        """The player's input for `tick`: an EditBatch or its dict form ({"edits": [...]}),
+        forces, impulses, torques and velocities on its bodies, motor speeds and targets on its
+        joints. Returns the SendInputReply (`duplicate` when one was held for the tick)."""
+        return sessions.send_input(self, player, tick, edits)
+
+    def watch_session(self, player=None):
+        """The session's events as an iterator (SessionEvents): the start, then every confirmed
+        tick. As `player`, the player is present until the iterator is closed."""
+        return sessions.watch(self, player)
 
     # --- Edits --------------------------------------------------------------------------------
 

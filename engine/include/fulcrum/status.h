@@ -23,6 +23,7 @@ enum class StatusCode {
   kCancelled,
   kDeadlineExceeded,
   kUnavailable,
+  kPermissionDenied,  // the caller may not do this (servers: a player acting for another)
 };
 
 const char* status_code_name(StatusCode code);
@@ -56,6 +57,12 @@ inline Status not_found(std::string message) {
 }
 inline Status data_loss(std::string message) {
   return Status(StatusCode::kDataLoss, std::move(message));
+}
+inline Status failed_precondition(std::string message) {
+  return Status(StatusCode::kFailedPrecondition, std::move(message));
+}
+inline Status resource_exhausted(std::string message) {
+  return Status(StatusCode::kResourceExhausted, std::move(message));
 }
 
 // A value or the Status that explains why there is none.

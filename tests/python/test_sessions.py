@@ -1,0 +1,52 @@
+"""Multiplayer sessions from Python: two players take turns, a spectator sees every confirmed
+tick with each player's input, and a player cannot push another player's body."""
+
+import grpc
+import pytest
+
+import fulcrum
+
+TOP, BELOW = 210, 209  # the pyramid's top two boxes (scene indices)
+
+
+def push(body, x):
+    return {"edits": [{"applyImpulse": {"body": {"index": body, "generation": 1},
+                                        "impulse": {"x": x, "y": 0}}}]}
+
+
+def test_two_players_take_turns_and_a_spectator_sees_every_tick(client, scenes):
+    with client.create_world(scenes / "pyramid.json") as world:
+        opened = world.open_session(max_players=2, seal="all_inputs")
+        assert opened.options.max_players == 2 and opened.tick == 0
+        one = world.join(bodies=[TOP], name="one")
+        two = world.join(bodies=[BELOW], name="two")
+        assert (one.player_id, two.player_id) == (1, 2)
+        with world.watch_session() as events:
+            start = next(events)
+            assert start.HasField("start") and start.start.tick == 0
+            assert [p.name for p in start.start.players] == ["one", "two"]
+            for tick in range(10):
+                world.send_input(one, tick, push(TOP, 1.0) if tick % 3 == 0 else {})
+                assert world.tick == tick, "the turn waits for player two"
+                assert not world.send_input(two, tick, push(BELOW, -1.0)).duplicate
+                assert world.tick == tick + 1
+            confirmed = [next(events).confirmed for _ in range(10)]
+        assert [c.tick.tick for c in confirmed] == list(range(1, 11))
+        # Player one pushed at ticks 0, 3, 6 and 9; player two every tick; in player order.
+        assert list(confirmed[0].batch_players) == [1, 2]
+        assert list(confirmed[1].batch_players) == [2]
+        assert confirmed[-1].tick.state_hash == world.info().state_hash
+
+
+def test_a_player_cannot_push_another_players_body(client, scenes):
+    with client.create_world(scenes / "pyramid.json") as world:
+        world.open_session()
+        one = world.join(bodies=[TOP])
+        world.join(bodies=[BELOW])
+        with pytest.raises(fulcrum.FulcrumError) as error:
+            world.send_input(one, 1, push(BELOW, 1.0))
+        assert error.value.code == grpc.StatusCode.PERMISSION_DENIED
+        assert error.value.field == "input.edits[0].apply_impulse.body"
+        with pytest.raises(fulcrum.FulcrumError) as error:
+            world.open_session(seal="sometimes")
+        assert error.value.field == "options.seal"
