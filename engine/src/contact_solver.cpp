@@ -156,9 +156,24 @@ void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScr
     const Body& b = w.bodies[awake[k]];
     if (!b.is_dynamic()) continue;
     SolverBody& sb = s.bodies[k + 1];
-    double vx = sb.vx + h * (b.inv_mass * b.force.x() + b.gravity_scale * gx);
-    double vy = sb.vy + h * (b.inv_mass * b.force.y() + b.gravity_scale * gy);
-    double av = sb.w + h * b.inv_inertia * b.torque;
+    // The tick's forces, the constant ones (forces.cpp) and gravity. Constant forces and
+    // attractors enter only where present, so that bodies without them keep their bits.
+    double fx = b.force.x(), fy = b.force.y(), torque = b.torque;
+    if (b.constant_force != Vec2::Zero() || b.constant_torque != 0.0) {
+      fx += b.constant_force.x();
+      fy += b.constant_force.y();
+      torque += b.constant_torque;
+    }
+    double ax = b.inv_mass * fx + b.gravity_scale * gx;
+    double ay = b.inv_mass * fy + b.gravity_scale * gy;
+    if (!w.attractors.empty()) {
+      Vec2 pull = w.attraction(b, b.center + Vec2(sb.dpx, sb.dpy));
+      ax += pull.x();
+      ay += pull.y();
+    }
+    double vx = sb.vx + h * ax;
+    double vy = sb.vy + h * ay;
+    double av = sb.w + h * b.inv_inertia * torque;
     if (b.linear_damping != 0.0) {
       double f = 1.0 / (1.0 + h * b.linear_damping);
       vx *= f;

@@ -7,6 +7,7 @@
 // q and n are found again in every pass from B's current position, so the row follows the
 // curve's bends. Polylines take the nearest segment (the first on ties); past a vertex the
 // normal turns with p - q, so the bead passes a corner smoothly. Body A only names the frame.
+// The feedback closes no faster than max_correction_speed (joint_solver.h).
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -151,6 +152,7 @@ void solve_curve_joint(Joint& j, const JointRow& r, const JointStep& st, SolverB
   double bias, ms, is;
   joint_bias(st, r.soft, dot(n, p - cp.closest), &bias, &ms, &is);
   double lambda = -ms * (cdot + bias) / k - is * j.axial_impulse;
+  lambda = capped_row_impulse(st, lambda, 1.0 / k, cdot, bias, ms, is, j.axial_impulse, false);
   j.axial_impulse += lambda;
   apply_normal(lambda, n, crn, b);
 }

@@ -5,7 +5,8 @@
 //   m_c = 1 / (ma + mb + ia (ra x u)^2 + ib (rb x u)^2)
 // A rod (min = max) is one equality row. Otherwise the spring is a soft row toward `length`,
 // and the limits are inequality rows: length - min >= 0 (lower) and max - length >= 0 (upper),
-// speculative while not reached (a slack rope pulls nothing).
+// speculative while not reached (a slack rope pulls nothing). The rod's and the limits' feedback
+// closes no faster than max_correction_speed (joint_solver.h); the spring is not capped.
 #include <algorithm>
 #include <cmath>
 
@@ -62,7 +63,10 @@ void solve_distance_joint(Joint& j, const JointRow& r, const JointStep& st, Solv
   if (j.min_length == j.max_length) {
     // A rod: one equality row.
     joint_bias(st, r.soft, u.length - j.length, &bias, &ms, &is);
-    double lambda = -ms * r.axial_mass * (axis_speed(f, u, a, b) + bias) - is * j.axial_impulse;
+    double cdot = axis_speed(f, u, a, b);
+    double lambda = -ms * r.axial_mass * (cdot + bias) - is * j.axial_impulse;
+    lambda =
+        capped_row_impulse(st, lambda, r.axial_mass, cdot, bias, ms, is, j.axial_impulse, false);
     j.axial_impulse += lambda;
     apply_axis(f, u, lambda, a, b);
     return;
@@ -85,7 +89,10 @@ void solve_distance_joint(Joint& j, const JointRow& r, const JointStep& st, Solv
     } else {
       joint_bias(st, r.soft, c, &bias, &ms, &is);
     }
-    double lambda = -ms * r.axial_mass * (axis_speed(f, u, a, b) + bias) - is * j.lower_impulse;
+    double cdot = axis_speed(f, u, a, b);
+    double lambda = -ms * r.axial_mass * (cdot + bias) - is * j.lower_impulse;
+    lambda =
+        capped_row_impulse(st, lambda, r.axial_mass, cdot, bias, ms, is, j.lower_impulse, true);
     double acc = std::max(j.lower_impulse + lambda, 0.0);
     lambda = acc - j.lower_impulse;
     j.lower_impulse = acc;
@@ -101,7 +108,10 @@ void solve_distance_joint(Joint& j, const JointRow& r, const JointStep& st, Solv
     } else {
       joint_bias(st, r.soft, c, &bias, &ms, &is);
     }
-    double lambda = -ms * r.axial_mass * (-axis_speed(f, u, a, b) + bias) - is * j.upper_impulse;
+    double cdot = -axis_speed(f, u, a, b);
+    double lambda = -ms * r.axial_mass * (cdot + bias) - is * j.upper_impulse;
+    lambda =
+        capped_row_impulse(st, lambda, r.axial_mass, cdot, bias, ms, is, j.upper_impulse, true);
     double acc = std::max(j.upper_impulse + lambda, 0.0);
     lambda = acc - j.upper_impulse;
     j.upper_impulse = acc;

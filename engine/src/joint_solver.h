@@ -3,6 +3,8 @@
 // what one tick's substeps need.
 #pragma once
 
+#include <cmath>
+
 #include "contact_solver.h"
 #include "fulcrum/math.h"
 
@@ -127,6 +129,49 @@ inline void joint_bias(const JointStep& st, const Softness& soft, double c, doub
   *bias = soft.bias_rate * c;
   *mass_scale = soft.mass_scale;
   *impulse_scale = soft.impulse_scale;
+}
+
+// Joint position feedback is capped at WorldSettings::max_correction_speed, as the contacts'
+// push-out is, on the speed a row asks its error to close at. A row's impulse
+//   lambda = -ms m (Jv + bias) - is acc  =  -ms m (Jv + B),   B = bias + is acc / (ms m)
+// drives Jv toward -B: the feedback's pull (bias = rate C) less the softness's give under the
+// load the row carries (is acc / (ms m)). Under a steady load B is zero, whatever error holds
+// the load, so the cap never weakens a loaded joint. Capping `bias` alone would: a soft row at
+// rest needs bias = is acc / (ms m), about 5 m/s in the joint above a 1000:1 end mass at the
+// defaults, and a joint whose load needs more than the cap would stretch without end. So only
+// a joint that is far out of place (created apart, pulled apart, a body teleported) closes at
+// the cap, where it used to close at rate * C (60 m/s for 1 m at the defaults), flinging
+// whatever it holds. Equality rows cap both ways; inequality rows (limits) only the push-out
+// (B >= -cap): their positive B is the speculative allowance c / h, not feedback. Linear rows
+// only: the cap is a speed in m/s, and an angle row's feedback is bounded by its angle error.
+
+// `lambda` is a linear row's impulse as written above, m its effective mass, acc its
+// accumulated impulse; returns lambda with B capped (unchanged within the cap).
+inline double capped_row_impulse(const JointStep& st, double lambda, double m, double cdot,
+                                 double bias, double ms, double is, double acc, bool one_sided) {
+  if (!st.use_bias || !(m > 0.0)) return lambda;
+  const double pull = ms * m * bias + is * acc;  // ms m B, compared without dividing
+  const double cap = ms * m * st.max_speed;
+  if (pull < -cap) return cap - ms * m * cdot;
+  if (!one_sided && pull > cap) return -cap - ms * m * cdot;
+  return lambda;
+}
+
+// The point rows' form (revolute, weld, motor-free two-row blocks): B = bias + (is / ms) K acc
+// is a velocity; its length is capped. Returns the change to apply to the block's impulse
+// (ms K^-1 (B - B_capped), in terms of inv_det and K), zero within the cap.
+inline Vec2 capped_point_correction(const JointStep& st, double k11, double k12, double k22,
+                                    double inv_det, double bias_x, double bias_y, double ms,
+                                    double is, const Vec2& acc) {
+  if (!st.use_bias) return Vec2::Zero();
+  const double tx = ms * bias_x + is * (k11 * acc.x() + k12 * acc.y());  // ms B
+  const double ty = ms * bias_y + is * (k12 * acc.x() + k22 * acc.y());
+  const double cap = ms * st.max_speed;
+  const double t2 = tx * tx + ty * ty;
+  if (!(t2 > cap * cap)) return Vec2::Zero();
+  const double f = 1.0 - cap / std::sqrt(t2);  // ms (B - B_capped) = f ms B
+  const double dx = f * tx, dy = f * ty;
+  return Vec2(inv_det * (k22 * dx - k12 * dy), inv_det * (k11 * dy - k12 * dx));
 }
 
 void prepare_distance_joint(const Joint& j, JointRow& r, const SolverBody& a, const SolverBody& b);

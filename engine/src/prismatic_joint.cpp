@@ -6,7 +6,11 @@
 //           upper - t >= 0; motor dt/dt - speed = 0 with |accumulated| <= max_force h;
 //           spring: a soft row C = t - target_translation of the spring's frequency,
 //           m = 1 / (ma + mb + ia a1^2 + ib a2^2) (LineFrame in joint_solver.h).
-// Solved in order spring, motor, limits, line and angle.
+// Solved in order spring, motor, limits, line and angle. The limits' feedback closes no faster
+// than max_correction_speed (joint_solver.h). The line row's is not capped: it is solved in one
+// block with the angle row, whose coupling (k12) mixes the angle row's accumulated impulse into
+// the line row's closing speed, and capping that one component of a nearly singular block
+// (k12^2 close to k11 k22 when B's anchor is far from A's centre) made the impulses blow up.
 #include <algorithm>
 #include <cmath>
 
@@ -27,7 +31,9 @@ void solve_line_limits(Joint& j, const LineFrame& fr, double m, const JointRow& 
   } else {
     joint_bias(st, r.soft, c, &bias, &ms, &is);
   }
-  double lambda = -ms * m * (line_axial_speed(fr, a, b) + bias) - is * j.lower_impulse;
+  double cdot = line_axial_speed(fr, a, b);
+  double lambda = -ms * m * (cdot + bias) - is * j.lower_impulse;
+  lambda = capped_row_impulse(st, lambda, m, cdot, bias, ms, is, j.lower_impulse, true);
   double acc = std::max(j.lower_impulse + lambda, 0.0);
   lambda = acc - j.lower_impulse;
   j.lower_impulse = acc;
@@ -40,7 +46,9 @@ void solve_line_limits(Joint& j, const LineFrame& fr, double m, const JointRow& 
   } else {
     joint_bias(st, r.soft, c, &bias, &ms, &is);
   }
-  lambda = -ms * m * (-line_axial_speed(fr, a, b) + bias) - is * j.upper_impulse;
+  cdot = -line_axial_speed(fr, a, b);
+  lambda = -ms * m * (cdot + bias) - is * j.upper_impulse;
+  lambda = capped_row_impulse(st, lambda, m, cdot, bias, ms, is, j.upper_impulse, true);
   acc = std::max(j.upper_impulse + lambda, 0.0);
   lambda = acc - j.upper_impulse;
   j.upper_impulse = acc;

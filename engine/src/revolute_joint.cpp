@@ -7,7 +7,9 @@
 //   Limits: theta - lower >= 0 and upper - theta >= 0 (inequalities, speculative until hit)
 //   Motor:  dtheta/dt - speed = 0, |accumulated| <= max_torque h
 //   Spring: soft row toward target_angle.
-// Solved in order spring, motor, limits, point: the point row, solved last, matters most.
+// Solved in order spring, motor, limits, point: the point row, solved last, matters most. The
+// point's feedback closes no faster than max_correction_speed (joint_solver.h); the angle
+// rows' is not capped (the cap is a speed in m/s).
 #include <algorithm>
 #include <cmath>
 
@@ -117,6 +119,10 @@ void solve_revolute_joint(Joint& j, const JointRow& r, const JointStep& st, Solv
   double sy = inv_det * (k11 * ry - k12 * rx);
   double px = -ms * sx - is * j.linear_impulse.x();
   double py = -ms * sy - is * j.linear_impulse.y();
+  Vec2 capped =
+      capped_point_correction(st, k11, k12, k22, inv_det, bias_x, bias_y, ms, is, j.linear_impulse);
+  px += capped.x();
+  py += capped.y();
   j.linear_impulse += Vec2(px, py);
   apply_joint_impulse(f, px, py, a, b);
 }

@@ -140,7 +140,12 @@ Result<World> build_world(const SceneDef& scene, const WorkLimits& limits) {
     Status s = std::visit([](const auto& def) { return validate(def); }, sj.def);
     FULCRUM_RETURN_IF_ERROR(at(s, where, "joint"));
   }
+  for (size_t i = 0; i < scene.attractors.size(); ++i) {
+    FULCRUM_RETURN_IF_ERROR(
+        validate_attractor(scene.attractors[i], "attractors[" + std::to_string(i) + "]"));
+  }
   World world(scene.settings);
+  FULCRUM_RETURN_IF_ERROR(world.set_attractors(scene.attractors));
   std::vector<BodyId> ids;
   ids.reserve(scene.bodies.size());
   for (size_t i = 0; i < scene.bodies.size(); ++i) {

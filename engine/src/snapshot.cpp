@@ -34,6 +34,7 @@ WorldSnapshot World::snapshot() const {
   s.pending_joint_events = w.pending_joint_events;
   s.awake_bodies = w.awake_bodies;
   s.move_buffer = w.move_buffer;
+  s.attractors = w.attractors;
   s.state_hash = state_hash();
   return s;
 }
@@ -100,16 +101,16 @@ Status check_body(const WorldSnapshot& s, size_t bi) {
   if (static_cast<int>(b.type) > static_cast<int>(BodyType::kParticle)) {
     return corrupt(at("body", bi, "type") + " is unknown");
   }
-  const std::pair<const char*, Vec2> vecs[] = {{"position", b.xf.p},
-                                               {"local_center", b.local_center},
-                                               {"center", b.center},
-                                               {"linear_velocity", b.v},
-                                               {"force", b.force}};
+  const std::pair<const char*, Vec2> vecs[] = {
+      {"position", b.xf.p}, {"local_center", b.local_center},
+      {"center", b.center}, {"linear_velocity", b.v},
+      {"force", b.force},   {"constant_force", b.constant_force}};
   for (const auto& [name, v] : vecs) FULCRUM_RETURN_IF_ERROR(check_number(at("body", bi, name), v));
   const std::pair<const char*, double> nums[] = {{"rotation.c", b.xf.q.c},
                                                  {"rotation.s", b.xf.q.s},
                                                  {"angular_velocity", b.w},
                                                  {"torque", b.torque},
+                                                 {"constant_torque", b.constant_torque},
                                                  {"mass", b.mass},
                                                  {"inv_mass", b.inv_mass},
                                                  {"inertia", b.inertia},
@@ -350,6 +351,10 @@ Status check_snapshot(const WorldSnapshot& s) {
   for (size_t i = 0; i < s.contacts.size(); ++i) FULCRUM_RETURN_IF_ERROR(check_contact(s, i));
   FULCRUM_RETURN_IF_ERROR(check_contact_lists(s));
   for (size_t i = 0; i < s.joints.size(); ++i) FULCRUM_RETURN_IF_ERROR(check_joint(s, i));
+  for (size_t i = 0; i < s.attractors.size(); ++i) {
+    Status ok = validate_attractor(s.attractors[i], "attractors[" + std::to_string(i) + "]");
+    if (!ok.ok()) return corrupt(ok.message());
+  }
   return {};
 }
 
@@ -376,6 +381,7 @@ Status World::restore(const WorldSnapshot& s) {
   w.pending_joint_events = s.pending_joint_events;
   w.awake_bodies = s.awake_bodies;
   w.move_buffer = s.move_buffer;
+  w.attractors = s.attractors;
   w.body_count = 0;
   for (const Body& b : w.bodies) w.body_count += b.alive ? 1 : 0;
   w.shape_count = 0;

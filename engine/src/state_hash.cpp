@@ -57,6 +57,13 @@ uint64_t World::state_hash() const {
     h.add(b.w);
     h.add(b.force);
     h.add(b.torque);
+    // Only when set, so that worlds without constant forces (and snapshots written before
+    // they existed) hash as they always did; the tag keeps the two forms apart.
+    if (b.constant_force != Vec2::Zero() || b.constant_torque != 0.0) {
+      h.add(uint64_t{0xC0F5});
+      h.add(b.constant_force);
+      h.add(b.constant_torque);
+    }
     h.add(b.awake);
     h.add(b.sleep_time);
   }
@@ -102,6 +109,18 @@ uint64_t World::state_hash() const {
       // Its targets change every tick (set_motor_joint_targets).
       h.add(j.local_a);
       h.add(j.reference_angle);
+    }
+  }
+  if (!w.attractors.empty()) {  // only when set, as constant forces above
+    h.add(uint64_t{0xA77AC7});
+    h.add(static_cast<uint64_t>(w.attractors.size()));
+    for (const AttractorDef& a : w.attractors) {
+      h.add(a.point);
+      h.add(a.strength);
+      h.add(static_cast<int>(a.falloff));
+      h.add(a.min_distance);
+      h.add(a.per_mass);
+      h.add(a.mask_bits);
     }
   }
   for (int i : w.free_joints) h.add(i);

@@ -78,6 +78,20 @@ Status validate_body_def(const BodyDef& d) {
   FULCRUM_RETURN_IF_ERROR(check_in_range("body.angular_damping", d.angular_damping, 0.0, 1e9));
   FULCRUM_RETURN_IF_ERROR(check_finite("body.gravity_scale", d.gravity_scale));
   FULCRUM_RETURN_IF_ERROR(check_in_range("body.drag", d.drag, 0.0, 1e12));
+  FULCRUM_RETURN_IF_ERROR(check_finite("body.constant_force", d.constant_force));
+  FULCRUM_RETURN_IF_ERROR(check_finite("body.constant_torque", d.constant_torque));
+  return {};
+}
+
+Status validate_attractor(const AttractorDef& d, const std::string& field) {
+  FULCRUM_RETURN_IF_ERROR(check_finite(field + ".point", d.point));
+  FULCRUM_RETURN_IF_ERROR(check_finite(field + ".strength", d.strength));
+  if (static_cast<int>(d.falloff) < 0 || static_cast<int>(d.falloff) > 1) {
+    return invalid_argument(field + ".falloff: unknown falloff " +
+                            std::to_string(static_cast<int>(d.falloff)));
+  }
+  FULCRUM_RETURN_IF_ERROR(check_finite(field + ".min_distance", d.min_distance));
+  FULCRUM_RETURN_IF_ERROR(check_above(field + ".min_distance", d.min_distance, 0.0));
   return {};
 }
 

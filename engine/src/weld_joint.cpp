@@ -2,7 +2,8 @@
 //   Point:  C = (cb + rb) - (ca + ra),  K as in revolute_joint.cpp
 //   Angle:  C = angle_b - angle_a - reference,  J = [0, -1, 0, 1],  m = 1 / (ia + ib)
 // Each part is rigid (the world's joint feedback) or a spring of its own frequency. The
-// angle row is solved first, the point row last.
+// angle row is solved first, the point row last. The point's feedback closes no faster than
+// max_correction_speed (joint_solver.h); its own spring and the angle row are not capped.
 #include "joint_solver.h"
 #include "world_impl.h"
 
@@ -59,6 +60,13 @@ void solve_weld_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBo
   double rx = cdx + rate * f.dx, ry = cdy + rate * f.dy;
   double px = -ms * inv_det * (k22 * rx - k12 * ry) - is * j.linear_impulse.x();
   double py = -ms * inv_det * (k11 * ry - k12 * rx) - is * j.linear_impulse.y();
+  if (j.hertz == 0.0) {  // the world's feedback, capped; a weld's own spring is a force, not
+                         // drift correction
+    Vec2 capped = capped_point_correction(st, k11, k12, k22, inv_det, rate * f.dx, rate * f.dy, ms,
+                                          is, j.linear_impulse);
+    px += capped.x();
+    py += capped.y();
+  }
   j.linear_impulse += Vec2(px, py);
   apply_joint_impulse(f, px, py, a, b);
 }

@@ -8,7 +8,9 @@
 //   Limits:  t - lower >= 0 and upper - t >= 0 on t = u . d (as the prismatic joint's)
 //   Motor:   wb - wa - speed = 0,  J = [0, -1, 0, 1],  m = 1 / (ia + ib),
 //            |accumulated| <= max_motor_torque h
-// Solved in order motor, spring, limits, line: the line row, solved last, matters most.
+// Solved in order motor, spring, limits, line: the line row, solved last, matters most. The
+// line row's and the limits' feedback closes no faster than max_correction_speed
+// (joint_solver.h); the spring and the motor are not capped.
 #include <algorithm>
 #include <cmath>
 
@@ -108,6 +110,7 @@ void solve_wheel_joint(Joint& j, const JointRow& r, const JointStep& st, SolverB
   double bias, ms, is;
   joint_bias(st, r.soft, px * fr.f.dx + py * fr.f.dy, &bias, &ms, &is);
   double lambda = -ms * (cdot + bias) / k - is * j.linear_impulse.x();
+  lambda = capped_row_impulse(st, lambda, 1.0 / k, cdot, bias, ms, is, j.linear_impulse.x(), false);
   j.linear_impulse.x() += lambda;
   double qx = lambda * px, qy = lambda * py;
   a.vx -= a.inv_mass * qx;

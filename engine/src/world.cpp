@@ -221,6 +221,10 @@ Result<BodyId> World::create_body(const BodyDef& def) {
   b.fixed_rotation = def.fixed_rotation;
   b.enable_sleep = def.enable_sleep;
   b.user_data = def.user_data;
+  if (b.is_dynamic()) {
+    b.constant_force = def.constant_force;
+    b.constant_torque = b.rotates() ? def.constant_torque : 0.0;
+  }
   if (def.type != BodyType::kStatic) {
     b.v = def.linear_velocity;
     b.w = b.rotates() || def.type == BodyType::kKinematic ? def.angular_velocity : 0.0;
@@ -287,6 +291,8 @@ Result<BodyState> World::body_state(BodyId id) const {
   s.rotational_inertia = b.inertia;
   s.awake = b.awake;
   s.user_data = b.user_data;
+  s.constant_force = b.constant_force;
+  s.constant_torque = b.constant_torque;
   return s;
 }
 

@@ -37,6 +37,7 @@ class WorldImpl {
   std::vector<Joint> joints;
   std::vector<int> free_joints;
   std::vector<JointId> pending_joint_events;  // destroyed with a body, reported next step
+  std::vector<AttractorDef> attractors;       // applied in this order (forces.cpp)
   // Every live contact by its pair of shapes (pair_key): the broad phase asks for each
   // candidate pair whether it already has one. Determinism: an unordered container is safe
   // here because it is only looked up, never iterated, so its order never reaches the results
@@ -100,6 +101,8 @@ class WorldImpl {
   void set_awake_flag(int body, bool awake);
   // Wakes a sleeping dynamic body and everything resting on it (its former island).
   void wake_island(int body);
+  // The attractors' acceleration of dynamic body b with its centre of mass at x (forces.cpp).
+  Vec2 attraction(const Body& b, const Vec2& x) const;
   // Wakes sleeping bodies whose shapes' boxes overlap `box`.
   void wake_in_box(const AABB& box);
 

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "fulcrum/state.h"
 #include "scene_convert.h"
@@ -74,7 +75,10 @@ Status for_each_handle(const v1::Edit& e, Visit visit) {
       return visit(e.set_joint_target().joint(), K::kJoint, "set_joint_target.joint");
     case v1::Edit::kSetAwake:
       return visit(e.set_awake().body(), K::kBody, "set_awake.body");
+    case v1::Edit::kSetConstantForce:
+      return visit(e.set_constant_force().body(), K::kBody, "set_constant_force.body");
     case v1::Edit::kCreateBody:
+    case v1::Edit::kSetAttractors:
     case v1::Edit::kSetGravity:
     case v1::Edit::kSetSettings:
     case v1::Edit::KIND_NOT_SET:
@@ -276,6 +280,19 @@ Status apply_one(World* w, const v1::Edit& e, const std::string& path, const Edi
     }
     case v1::Edit::kSetAwake:
       return w->set_awake(body(e.set_awake().body()), e.set_awake().awake());
+    case v1::Edit::kSetConstantForce: {
+      const v1::SetConstantForce& f = e.set_constant_force();
+      return w->set_constant_force(body(f.body()), get(f.force()), f.torque());
+    }
+    case v1::Edit::kSetAttractors: {
+      const v1::SetAttractors& a = e.set_attractors();
+      std::vector<AttractorDef> list(a.attractors_size());
+      for (int i = 0; i < a.attractors_size(); ++i) {
+        FULCRUM_RETURN_IF_ERROR(scene_attractor_from_proto(
+            a.attractors(i), path + ".attractors[" + std::to_string(i) + "]", &list[i]));
+      }
+      return w->set_attractors(list);
+    }
     case v1::Edit::KIND_NOT_SET:
       break;
   }

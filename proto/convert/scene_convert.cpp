@@ -402,6 +402,11 @@ Status body_from_proto(const v1::Body& p, const std::string& path, SceneBody* bo
   if (p.has_awake()) def.awake = p.awake();
   if (p.has_enable_sleep()) def.enable_sleep = p.enable_sleep();
   def.user_data = p.user_data();
+  CONVERT_RETURN_IF_ERROR(read_opt_vec(join(path, "constant_force"), p.has_constant_force(),
+                                       p.constant_force(), &def.constant_force));
+  CONVERT_RETURN_IF_ERROR(
+      check(join(path, "constant_torque"), p.constant_torque(), Range::kFinite));
+  def.constant_torque = p.constant_torque();
 
   body->shapes.resize(p.shapes_size());
   for (int i = 0; i < p.shapes_size(); ++i) {
@@ -472,13 +477,94 @@ Status stack_from_proto(const v1::Builder::Stack& p, const std::string& path, Sc
 }
 
 Status ground_from_proto(const v1::Builder::Ground& p, const std::string& path, SceneDef* scene) {
+  scenes::GroundOptions o;
   CONVERT_RETURN_IF_ERROR(check(join(path, "half_width"), p.half_width(), Range::kPositive));
+  o.half_width = p.half_width();
   CONVERT_RETURN_IF_ERROR(check(join(path, "top"), p.top(), Range::kFinite));
-  double friction = 0.6;  // add_ground's default
+  o.center = Vec2(0.0, p.top());
+  if (p.has_center()) {
+    if (p.top() != 0.0) return fail(join(path, "top"), "give center or top, not both");
+    CONVERT_RETURN_IF_ERROR(read_opt_vec(join(path, "center"), true, p.center(), &o.center));
+  }
+  CONVERT_RETURN_IF_ERROR(check(join(path, "angle"), p.angle(), Range::kFinite));
+  o.angle = p.angle();
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "thickness"), p.has_thickness(), p.thickness(),
+                                   Range::kPositive, &o.thickness));
   CONVERT_RETURN_IF_ERROR(read_opt(join(path, "friction"), p.has_friction(), p.friction(),
-                                   Range::kNonNegative, &friction));
+                                   Range::kNonNegative, &o.friction));
   CONVERT_RETURN_IF_ERROR(check_room(path, *scene, 1));
-  scenes::add_ground(scene, p.half_width(), p.top(), friction);
+  scenes::add_ground(scene, o);
+  return Status::ok_status();
+}
+
+Status joint_chain_from_proto(const v1::Builder::JointChain& p, const std::string& path,
+                              SceneDef* scene) {
+  scenes::JointChainOptions o;
+  CONVERT_RETURN_IF_ERROR(
+      read_opt_vec(join(path, "anchor"), p.has_anchor(), p.anchor(), &o.anchor));
+  if (p.has_links()) {
+    CONVERT_RETURN_IF_ERROR(check_int(join(path, "links"), p.links(), 1, kMaxStackCount));
+    o.links = p.links();
+  }
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "link_width"), p.has_link_width(), p.link_width(),
+                                   Range::kPositive, &o.link_width));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "link_length"), p.has_link_length(), p.link_length(),
+                                   Range::kPositive, &o.link_length));
+  if (!(o.link_length > o.link_width)) {
+    return fail(join(path, "link_length"), "must be > link_width (got " + fmt(o.link_length) +
+                                               " <= " + fmt(o.link_width) + ")");
+  }
+  if (!v1::Builder_JointChain_LinkShape_IsValid(p.shape())) {
+    return fail(join(path, "shape"), "unknown link shape " + std::to_string(p.shape()));
+  }
+  o.shape = static_cast<scenes::JointChainOptions::LinkShape>(p.shape());
+  if (!v1::Builder_JointChain_Kind_IsValid(p.joint())) {
+    return fail(join(path, "joint"), "unknown joint kind " + std::to_string(p.joint()));
+  }
+  o.joint = static_cast<scenes::JointChainOptions::JointKind>(p.joint());
+  CONVERT_RETURN_IF_ERROR(check(join(path, "angle"), p.angle(), Range::kFinite));
+  o.angle = p.angle();
+  CONVERT_RETURN_IF_ERROR(
+      read_opt(join(path, "density"), p.has_density(), p.density(), Range::kPositive, &o.density));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "friction"), p.has_friction(), p.friction(),
+                                   Range::kNonNegative, &o.friction));
+  CONVERT_RETURN_IF_ERROR(check(join(path, "end_mass"), p.end_mass(), Range::kNonNegative));
+  o.end_mass = p.end_mass();
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "end_radius"), p.has_end_radius(), p.end_radius(),
+                                   Range::kPositive, &o.end_radius));
+  CONVERT_RETURN_IF_ERROR(check_room(path, *scene, o.links + 2));
+  scenes::add_joint_chain(scene, o);
+  return Status::ok_status();
+}
+
+Status card_house_from_proto(const v1::Builder::CardHouse& p, const std::string& path,
+                             SceneDef* scene) {
+  scenes::CardHouseOptions o;
+  CONVERT_RETURN_IF_ERROR(
+      read_opt_vec(join(path, "origin"), p.has_origin(), p.origin(), &o.origin));
+  if (p.has_levels()) {
+    CONVERT_RETURN_IF_ERROR(check_int(join(path, "levels"), p.levels(), 1, 100));
+    o.levels = p.levels();
+  }
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "card_length"), p.has_card_length(), p.card_length(),
+                                   Range::kPositive, &o.card_length));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "card_thickness"), p.has_card_thickness(),
+                                   p.card_thickness(), Range::kPositive, &o.card_thickness));
+  if (!(o.card_thickness <= o.card_length / 20.0)) {
+    return fail(join(path, "card_thickness"),
+                "must be <= card_length / 20 (got " + fmt(o.card_thickness) + ")");
+  }
+  CONVERT_RETURN_IF_ERROR(
+      read_opt(join(path, "lean"), p.has_lean(), p.lean(), Range::kFinite, &o.lean));
+  if (!(o.lean >= 0.05 && o.lean <= 0.45)) {
+    return fail(join(path, "lean"), "must be in [0.05, 0.45] (got " + fmt(o.lean) + ")");
+  }
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "friction"), p.has_friction(), p.friction(),
+                                   Range::kNonNegative, &o.friction));
+  CONVERT_RETURN_IF_ERROR(
+      read_opt(join(path, "density"), p.has_density(), p.density(), Range::kPositive, &o.density));
+  CONVERT_RETURN_IF_ERROR(check_room(path, *scene, (3 * o.levels * o.levels + o.levels) / 2));
+  scenes::add_card_house(scene, o);
   return Status::ok_status();
 }
 
@@ -573,10 +659,16 @@ Status builder_from_proto(const v1::Builder& p, const std::string& path, SceneDe
       return cloth_from_proto(p.cloth(), join(path, "cloth"), scene);
     case v1::Builder::kRagdoll:
       return ragdoll_from_proto(p.ragdoll(), join(path, "ragdoll"), scene);
+    case v1::Builder::kJointChain:
+      return joint_chain_from_proto(p.joint_chain(), join(path, "joint_chain"), scene);
+    case v1::Builder::kCardHouse:
+      return card_house_from_proto(p.card_house(), join(path, "card_house"), scene);
     case v1::Builder::KIND_NOT_SET:
       break;
   }
-  return fail(path, "no builder (set one of pyramid, stack, ground, rope, cloth, ragdoll)");
+  return fail(path,
+              "no builder (set one of pyramid, stack, ground, rope, cloth, ragdoll, joint_chain, "
+              "card_house)");
 }
 
 // --- Engine to proto ---------------------------------------------------------------------------
@@ -793,6 +885,10 @@ void body_to_proto(const SceneBody& b, v1::Body* out) {
   if (def.awake != d.awake) out->set_awake(def.awake);
   if (def.enable_sleep != d.enable_sleep) out->set_enable_sleep(def.enable_sleep);
   out->set_user_data(def.user_data);
+  if (!same(def.constant_force, d.constant_force)) {
+    vec_to_proto(def.constant_force, out->mutable_constant_force());
+  }
+  out->set_constant_torque(def.constant_torque);
   for (const ShapeDef& s : b.shapes) shape_to_proto(s, out->add_shapes());
   for (const ChainDef& c : b.chains) chain_to_proto(c, out->add_chains());
 }
@@ -1186,6 +1282,35 @@ void joint_to_proto(const SceneJoint& j, v1::Joint* out) {
   }
 }
 
+Status attractor_from_proto(const v1::Attractor& p, const std::string& path, AttractorDef* a) {
+  *a = AttractorDef{};
+  CONVERT_RETURN_IF_ERROR(read_opt_vec(join(path, "point"), p.has_point(), p.point(), &a->point));
+  CONVERT_RETURN_IF_ERROR(check(join(path, "strength"), p.strength(), Range::kFinite));
+  a->strength = p.strength();
+  // Proto3 enums are open: a JSON number outside the enum parses, so it is checked here.
+  if (!v1::Falloff_IsValid(p.falloff())) {
+    return fail(join(path, "falloff"), "unknown falloff " + std::to_string(p.falloff()));
+  }
+  a->falloff = static_cast<Falloff>(p.falloff());
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "min_distance"), p.has_min_distance(),
+                                   p.min_distance(), Range::kPositive, &a->min_distance));
+  if (p.has_per_mass()) a->per_mass = p.per_mass();
+  if (p.has_mask_bits()) a->mask_bits = p.mask_bits();
+  // The engine's own check (the magnitude bound), named at this path.
+  return validate_attractor(*a, path);
+}
+
+// Every field written (snapshots restore them exactly; exported scenes do not depend on
+// today's defaults).
+void attractor_to_proto(const AttractorDef& a, v1::Attractor* out) {
+  vec_to_proto(a.point, out->mutable_point());
+  out->set_strength(a.strength);
+  out->set_falloff(static_cast<v1::Falloff>(a.falloff));
+  out->set_min_distance(a.min_distance);
+  out->set_per_mass(a.per_mass);
+  out->set_mask_bits(a.mask_bits);
+}
+
 }  // namespace
 
 Result<SceneDef> scene_from_proto(const v1::Scene& proto) {
@@ -1221,6 +1346,12 @@ Result<SceneDef> scene_from_proto(const v1::Scene& proto) {
                                              static_cast<int>(scene.bodies.size()), &joint));
     scene.joints.push_back(joint);
   }
+  for (int i = 0; i < proto.attractors_size(); ++i) {
+    AttractorDef a;
+    CONVERT_RETURN_IF_ERROR(
+        attractor_from_proto(proto.attractors(i), indexed("", "attractors", i), &a));
+    scene.attractors.push_back(a);
+  }
   return scene;
 }
 
@@ -1230,6 +1361,7 @@ v1::Scene scene_to_proto(const SceneDef& scene, std::string_view name) {
   settings_to_proto(scene.settings, out.mutable_settings());
   for (const SceneBody& b : scene.bodies) body_to_proto(b, out.add_bodies());
   for (const SceneJoint& j : scene.joints) joint_to_proto(j, out.add_joints());
+  for (const AttractorDef& a : scene.attractors) attractor_to_proto(a, out.add_attractors());
   return out;
 }
 
@@ -1300,6 +1432,13 @@ void scene_filter_to_proto(const Filter& f, v1::Filter* out) {
 Status scene_joint_from_proto(const v1::Joint& p, const std::string& path, int body_count,
                               SceneJoint* out) {
   return joint_from_proto(p, path, body_count, out);
+}
+Status scene_attractor_from_proto(const v1::Attractor& p, const std::string& path,
+                                  AttractorDef* out) {
+  return attractor_from_proto(p, path, out);
+}
+void scene_attractor_to_proto(const AttractorDef& a, v1::Attractor* out) {
+  attractor_to_proto(a, out);
 }
 
 Status target_joint_from_proto(const v1::Joint& p, const std::string& path, TargetJointDef* def) {

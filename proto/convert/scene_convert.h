@@ -44,6 +44,11 @@ void scene_filter_to_proto(const Filter& f, v1::Filter* out);
 // body_a and body_b index a list of body_count bodies.
 Status scene_joint_from_proto(const v1::Joint& p, const std::string& path, int body_count,
                               SceneJoint* out);
+// Checked as the engine checks it (finite, within kMaxInputMagnitude, min_distance > 0).
+Status scene_attractor_from_proto(const v1::Attractor& p, const std::string& path,
+                                  AttractorDef* out);
+// Every field written.
+void scene_attractor_to_proto(const AttractorDef& a, v1::Attractor* out);
 // A Joint whose kind is `target` (edits only), without its bodies.
 Status target_joint_from_proto(const v1::Joint& p, const std::string& path, TargetJointDef* def);
 

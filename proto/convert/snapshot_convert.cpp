@@ -36,6 +36,8 @@ void body_to_proto(const Body& b, v1::SnapshotBody* out) {
   out->set_angular_velocity(b.w);
   put(b.force, out->mutable_force());
   out->set_torque(b.torque);
+  put(b.constant_force, out->mutable_constant_force());
+  out->set_constant_torque(b.constant_torque);
   out->set_mass(b.mass);
   out->set_inv_mass(b.inv_mass);
   out->set_inertia(b.inertia);
@@ -69,6 +71,8 @@ Body body_from_proto(const v1::SnapshotBody& p) {
   b.w = p.angular_velocity();
   b.force = get(p.force());
   b.torque = p.torque();
+  b.constant_force = get(p.constant_force());
+  b.constant_torque = p.constant_torque();
   b.mass = p.mass();
   b.inv_mass = p.inv_mass();
   b.inertia = p.inertia();
@@ -373,6 +377,7 @@ v1::Snapshot snapshot_to_proto(const WorldSnapshot& s) {
   }
   for (int i : s.awake_bodies) out.add_awake_bodies(i);
   for (int i : s.move_buffer) out.add_move_buffer(i);
+  for (const AttractorDef& a : s.attractors) scene_attractor_to_proto(a, out.add_attractors());
   out.set_state_hash(s.state_hash);
   return out;
 }
@@ -429,6 +434,13 @@ Result<WorldSnapshot> snapshot_from_proto(const v1::Snapshot& p) {
   }
   for (int si : s.move_buffer) {
     if (si >= 0 && static_cast<size_t>(si) < s.shapes.size()) s.shapes[si].in_move_buffer = true;
+  }
+  for (int i = 0; i < p.attractors_size(); ++i) {
+    AttractorDef a;
+    Status st =
+        scene_attractor_from_proto(p.attractors(i), "attractors[" + std::to_string(i) + "]", &a);
+    if (!st.ok()) return data_loss("snapshot: " + st.message());
+    s.attractors.push_back(a);
   }
   s.state_hash = p.state_hash();
   return s;
@@ -533,6 +545,14 @@ bool same_list(const A& a, const B& b) {
   return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin());
 }
 
+bool same_attractors(const v1::Snapshot& a, const v1::Snapshot& b) {
+  if (a.attractors_size() != b.attractors_size()) return false;
+  for (int i = 0; i < a.attractors_size(); ++i) {
+    if (a.attractors(i).SerializeAsString() != b.attractors(i).SerializeAsString()) return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 v1::SnapshotDelta make_delta(const v1::Snapshot& base, const v1::Snapshot& next) {
@@ -601,6 +621,7 @@ v1::SnapshotDelta make_delta(const v1::Snapshot& base, const v1::Snapshot& next)
                     same_list(base.free_joints(), next.free_joints()) &&
                     same_list(base.awake_bodies(), next.awake_bodies()) &&
                     same_list(base.move_buffer(), next.move_buffer()) &&
+                    same_attractors(base, next) &&
                     base.pending_joint_events().size() == next.pending_joint_events().size();
   for (int i = 0; lists_same && i < next.pending_joint_events_size(); ++i) {
     lists_same = base.pending_joint_events(i).SerializeAsString() ==
@@ -616,6 +637,7 @@ v1::SnapshotDelta make_delta(const v1::Snapshot& base, const v1::Snapshot& next)
     *l->mutable_pending_joint_events() = next.pending_joint_events();
     *l->mutable_awake_bodies() = next.awake_bodies();
     *l->mutable_move_buffer() = next.move_buffer();
+    *l->mutable_attractors() = next.attractors();
   }
   return d;
 }
@@ -708,6 +730,7 @@ Result<v1::Snapshot> apply_delta(const v1::Snapshot& base, const v1::SnapshotDel
     *s.mutable_pending_joint_events() = l.pending_joint_events();
     *s.mutable_awake_bodies() = l.awake_bodies();
     *s.mutable_move_buffer() = l.move_buffer();
+    *s.mutable_attractors() = l.attractors();
   }
   return s;
 }

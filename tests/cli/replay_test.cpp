@@ -98,6 +98,55 @@ std::string record(const std::string& name, uint32_t keyframes, int ticks = 120)
   return path;
 }
 
+// Constant forces and attractors through edits: applied, and refused with the field named
+// when not finite or beyond 1e12 (kMaxInputMagnitude), leaving the world unchanged.
+TEST(EditBatch, ConstantForcesAndAttractors) {
+  World w = build("ragdolls");
+  for (int i = 0; i < 5; ++i) w.step();
+  const uint64_t before = w.state_hash();
+  v1::EditBatch bad;
+  v1::SetConstantForce* f = bad.add_edits()->mutable_set_constant_force();
+  *f->mutable_body() = handle(30);
+  f->mutable_force()->set_x(std::nan(""));
+  Result<EditOutcome> r = apply_edit_batch(&w, bad);
+  EXPECT_EQ(r.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(r.status().message().rfind("edits[0].set_constant_force.force: must be finite", 0), 0u)
+      << r.status().message();
+  f->mutable_force()->set_x(1.0);
+  f->set_torque(2e12);
+  r = apply_edit_batch(&w, bad);
+  EXPECT_EQ(r.status().message().rfind("edits[0].set_constant_force.torque", 0), 0u)
+      << r.status().message();
+
+  v1::EditBatch bad_pull;
+  v1::SetAttractors* a = bad_pull.add_edits()->mutable_set_attractors();
+  a->add_attractors()->set_strength(1.0);
+  a->add_attractors()->set_strength(std::nan(""));
+  r = apply_edit_batch(&w, bad_pull);
+  EXPECT_EQ(r.status().message().rfind("edits[0].set_attractors.attractors[1].strength", 0), 0u)
+      << r.status().message();
+  a->mutable_attractors(1)->set_strength(1.0);
+  a->mutable_attractors(1)->set_falloff(static_cast<v1::Falloff>(7));
+  r = apply_edit_batch(&w, bad_pull);
+  EXPECT_EQ(r.status().message().rfind("edits[0].set_attractors.attractors[1].falloff", 0), 0u)
+      << r.status().message();
+  EXPECT_EQ(w.state_hash(), before);
+
+  v1::EditBatch good;
+  f = good.add_edits()->mutable_set_constant_force();
+  *f->mutable_body() = handle(30);
+  f->mutable_force()->set_y(50.0);
+  v1::Attractor* pull = good.add_edits()->mutable_set_attractors()->add_attractors();
+  pull->mutable_point()->set_y(20.0);
+  pull->set_strength(5.0);
+  pull->set_falloff(v1::FALLOFF_INVERSE_SQUARE);
+  ASSERT_TRUE(apply_edit_batch(&w, good).ok());
+  ASSERT_EQ(w.attractors().size(), 1u);
+  EXPECT_EQ(w.attractors()[0].falloff, Falloff::kInverseSquare);
+  EXPECT_EQ(w.attractors()[0].min_distance, 0.5);  // the default
+  EXPECT_EQ(w.body_state(BodyId{30, 1})->constant_force, Vec2(0.0, 50.0));
+}
+
 TEST(EditBatch, RefusedBatchChangesNothing) {
   World w = build("ragdolls");
   for (int i = 0; i < 20; ++i) w.step();

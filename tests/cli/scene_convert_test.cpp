@@ -145,6 +145,8 @@ std::string diff_body(const std::string& p, const SceneBody& a, const SceneBody&
   RETURN_IF_DIFF(diff_value(p + ".awake", x.awake, y.awake));
   RETURN_IF_DIFF(diff_value(p + ".enable_sleep", x.enable_sleep, y.enable_sleep));
   RETURN_IF_DIFF(diff_value(p + ".user_data", x.user_data, y.user_data));
+  RETURN_IF_DIFF(diff_vec(p + ".constant_force", x.constant_force, y.constant_force));
+  RETURN_IF_DIFF(diff_double(p + ".constant_torque", x.constant_torque, y.constant_torque));
   RETURN_IF_DIFF(diff_value(p + ".shapes.size", a.shapes.size(), b.shapes.size()));
   for (size_t i = 0; i < a.shapes.size(); ++i) {
     const std::string sp = p + ".shapes[" + std::to_string(i) + "]";
@@ -181,6 +183,19 @@ std::string diff_scene(const SceneDef& a, const SceneDef& b) {
   RETURN_IF_DIFF(diff_value("bodies.size", a.bodies.size(), b.bodies.size()));
   for (size_t i = 0; i < a.bodies.size(); ++i) {
     RETURN_IF_DIFF(diff_body("bodies[" + std::to_string(i) + "]", a.bodies[i], b.bodies[i]));
+  }
+  RETURN_IF_DIFF(diff_value("attractors.size", a.attractors.size(), b.attractors.size()));
+  for (size_t i = 0; i < a.attractors.size(); ++i) {
+    const std::string p = "attractors[" + std::to_string(i) + "]";
+    const AttractorDef& x = a.attractors[i];
+    const AttractorDef& y = b.attractors[i];
+    RETURN_IF_DIFF(diff_vec(p + ".point", x.point, y.point));
+    RETURN_IF_DIFF(diff_double(p + ".strength", x.strength, y.strength));
+    RETURN_IF_DIFF(
+        diff_value(p + ".falloff", static_cast<int>(x.falloff), static_cast<int>(y.falloff)));
+    RETURN_IF_DIFF(diff_double(p + ".min_distance", x.min_distance, y.min_distance));
+    RETURN_IF_DIFF(diff_value(p + ".per_mass", x.per_mass, y.per_mass));
+    RETURN_IF_DIFF(diff_value(p + ".mask_bits", x.mask_bits, y.mask_bits));
   }
   return "";
 }
@@ -316,6 +331,17 @@ SceneDef AwkwardScene() {
   plate.geometry = make_box(2.0, 0.25);
   kinematic.shapes.push_back(plate);
   scene.bodies.push_back(kinematic);
+  scene.bodies[1].def.constant_force = Vec2(-0.0, 1e12);
+  scene.bodies[1].def.constant_torque = -3.5;
+  AttractorDef pull;
+  pull.point = Vec2(1.0 / 3.0, -2.0);
+  pull.strength = -7.25;
+  pull.falloff = Falloff::kInverseSquare;
+  pull.min_distance = 5e-324;
+  pull.per_mass = false;
+  pull.mask_bits = 0x8000000000000001ull;
+  scene.attractors.push_back(pull);
+  scene.attractors.push_back(AttractorDef{});
   return scene;
 }
 
@@ -327,7 +353,8 @@ SceneDef AwkwardScene() {
 // numbers (x86-64 sizes).
 TEST(SceneSchema, EngineDefinitionStructsAreCovered) {
   EXPECT_EQ(sizeof(WorldSettings), 192u);
-  EXPECT_EQ(sizeof(BodyDef), 128u);
+  EXPECT_EQ(sizeof(BodyDef), 160u);
+  EXPECT_EQ(sizeof(AttractorDef), 64u);
   EXPECT_EQ(sizeof(ShapeDef), 368u);
   EXPECT_EQ(sizeof(ChainDef), 80u);
   EXPECT_EQ(sizeof(Filter), 24u);
@@ -414,6 +441,44 @@ TEST(SceneJson, BuiltinsRoundTrip) {
 
 // --- Defaults and assembly order -------------------------------------------------------------
 
+// The JSON spelling of constant forces and attractors (scene.proto), and the world it builds.
+TEST(SceneJson, ConstantForcesAndAttractors) {
+  Result<SceneDef> scene = parse_scene_json(R"({
+    "bodies": [{"type": "BODY_TYPE_DYNAMIC", "constantForce": {"x": 2, "y": 30},
+                "constantTorque": 0.5, "shapes": [{"circle": {"radius": 0.5}}]}],
+    "attractors": [{"point": {"x": 1, "y": 2}, "strength": 100,
+                    "falloff": "FALLOFF_INVERSE_SQUARE", "minDistance": 2, "perMass": false,
+                    "maskBits": "6"},
+                   {"strength": 3}]
+  })");
+  ASSERT_TRUE(scene.ok()) << scene.status().to_string();
+  EXPECT_EQ(scene->bodies[0].def.constant_force, Vec2(2.0, 30.0));
+  EXPECT_EQ(scene->bodies[0].def.constant_torque, 0.5);
+  ASSERT_EQ(scene->attractors.size(), 2u);
+  const AttractorDef& a = scene->attractors[0];
+  EXPECT_EQ(a.point, Vec2(1.0, 2.0));
+  EXPECT_EQ(a.strength, 100.0);
+  EXPECT_EQ(a.falloff, Falloff::kInverseSquare);
+  EXPECT_EQ(a.min_distance, 2.0);
+  EXPECT_FALSE(a.per_mass);
+  EXPECT_EQ(a.mask_bits, 6u);
+  const AttractorDef defaults;  // absent fields: the engine's defaults
+  EXPECT_EQ(scene->attractors[1].falloff, Falloff::kConstant);
+  EXPECT_EQ(scene->attractors[1].min_distance, defaults.min_distance);
+  EXPECT_TRUE(scene->attractors[1].per_mass);
+  EXPECT_EQ(scene->attractors[1].mask_bits, ~uint64_t{0});
+  Result<World> world = build_world(*scene);
+  ASSERT_TRUE(world.ok()) << world.status().to_string();
+  EXPECT_EQ(world->attractors().size(), 2u);
+  EXPECT_EQ(world->body_state(world->bodies()[0])->constant_force, Vec2(2.0, 30.0));
+  // The magnitude bound (kMaxInputMagnitude) is the engine's, checked when the world is built.
+  scene->bodies[0].def.constant_torque = 1e13;
+  world = build_world(*scene);
+  ASSERT_FALSE(world.ok());
+  EXPECT_EQ(world.status().message().rfind("bodies[0].constant_torque", 0), 0u)
+      << world.status().message();
+}
+
 TEST(SceneJson, AbsentFieldsTakeEngineDefaults) {
   Result<SceneDef> scene = parse_scene_json(R"({
     "bodies": [{"shapes": [{"circle": {}}], "chains": [{"points": [{}, {"x": 1}]}]}]
@@ -453,6 +518,65 @@ TEST(SceneJson, BuiltinThenBuildersThenBodies) {
   expected.dt = 0.01;
   expected.velocity_iterations = 4;
   EXPECT_EQ(diff_settings(expected, scene->settings), "");
+}
+
+// The JSON spelling of the hand-written-scene builders: a ground placed anywhere, a joint
+// chain, a card house; each gives what its builder function gives.
+TEST(SceneJson, HandBuildersMatchTheBuilderFunctions) {
+  Result<SceneDef> scene = parse_scene_json(R"({"builders": [
+    {"ground": {"halfWidth": 30, "center": {"x": 2, "y": -1}, "angle": -0.2, "thickness": 0.5,
+                "friction": 0.9}},
+    {"ground": {"halfWidth": 10, "top": 3}},
+    {"jointChain": {"anchor": {"x": -5, "y": 12}, "links": 8, "linkLength": 0.8,
+                    "linkWidth": 0.2, "shape": "LINK_SHAPE_BOX", "joint": "KIND_WELD",
+                    "angle": 0.5, "density": 2, "friction": 0.3, "endMass": 100,
+                    "endRadius": 0.4}},
+    {"jointChain": {}},
+    {"cardHouse": {"origin": {"x": 7}, "levels": 4, "cardLength": 0.9, "cardThickness": 0.03,
+                   "lean": 0.3, "friction": 0.8, "density": 0.5}}
+  ]})");
+  ASSERT_TRUE(scene.ok()) << scene.status().to_string();
+  SceneDef expected;
+  scenes::GroundOptions g;
+  g.half_width = 30;
+  g.center = Vec2(2, -1);
+  g.angle = -0.2;
+  g.thickness = 0.5;
+  g.friction = 0.9;
+  scenes::add_ground(&expected, g);
+  scenes::add_ground(&expected, 10.0, 3.0);
+  scenes::JointChainOptions c;
+  c.anchor = Vec2(-5, 12);
+  c.links = 8;
+  c.link_length = 0.8;
+  c.link_width = 0.2;
+  c.shape = scenes::JointChainOptions::LinkShape::kBox;
+  c.joint = scenes::JointChainOptions::JointKind::kWeld;
+  c.angle = 0.5;
+  c.density = 2;
+  c.friction = 0.3;
+  c.end_mass = 100;
+  c.end_radius = 0.4;
+  scenes::add_joint_chain(&expected, c);
+  scenes::add_joint_chain(&expected, scenes::JointChainOptions{});
+  scenes::CardHouseOptions h;
+  h.origin = Vec2(7, 0);
+  h.levels = 4;
+  h.card_length = 0.9;
+  h.card_thickness = 0.03;
+  h.lean = 0.3;
+  h.friction = 0.8;
+  h.density = 0.5;
+  scenes::add_card_house(&expected, h);
+  EXPECT_EQ(diff_scene(expected, *scene), "");
+  ASSERT_EQ(scene->joints.size(), expected.joints.size());
+  EXPECT_EQ(scene->joints.size(), 9u + 20u);
+  for (size_t i = 0; i < expected.joints.size(); ++i) {
+    EXPECT_EQ(scene->joints[i].body_a, expected.joints[i].body_a);
+    EXPECT_EQ(scene->joints[i].body_b, expected.joints[i].body_b);
+    EXPECT_EQ(scene->joints[i].def.index(), expected.joints[i].def.index());
+  }
+  EXPECT_TRUE(build_world(*scene).ok());
 }
 
 TEST(SceneJson, BuildersMatchTheBuilderFunctions) {
@@ -610,6 +734,27 @@ TEST_P(SceneJsonErrors, NameTheField) {
 }
 
 const BadInput kBadInputs[] = {
+    {"ChainLinkTooShort", R"({"builders": [{"jointChain": {"linkLength": 0.2}}]})",
+     "builders[0].joint_chain.link_length: must be > link_width (got 0.2 <= 0.25)"},
+    {"ChainUnknownShape", R"({"builders": [{"jointChain": {"shape": 5}}]})",
+     "builders[0].joint_chain.shape: unknown link shape 5"},
+    {"ChainNegativeEndMass", R"({"builders": [{"jointChain": {"endMass": -1}}]})",
+     "builders[0].joint_chain.end_mass: must be >= 0 (got -1)"},
+    {"CardHouseLean", R"({"builders": [{"cardHouse": {"lean": 0.6}}]})",
+     "builders[0].card_house.lean: must be in [0.05, 0.45] (got 0.6)"},
+    {"CardHouseThickCards", R"({"builders": [{"cardHouse": {"cardThickness": 0.2}}]})",
+     "builders[0].card_house.card_thickness: must be <= card_length / 20 (got 0.2)"},
+    {"GroundCenterAndTop", R"({"builders": [{"ground": {"halfWidth": 1, "top": 2,
+      "center": {}}}]})",
+     "builders[0].ground.top: give center or top, not both"},
+    {"NaNConstantForce", R"({"bodies": [{"constantForce": {"y": "NaN"}}]})",
+     "bodies[0].constant_force.y: must be finite (got nan)"},
+    {"NaNAttractorStrength", R"({"attractors": [{}, {"strength": "NaN"}]})",
+     "attractors[1].strength: must be finite (got nan)"},
+    {"ZeroAttractorMinDistance", R"({"attractors": [{"minDistance": 0}]})",
+     "attractors[0].min_distance: must be > 0 (got 0)"},
+    {"UnknownFalloff", R"({"attractors": [{"falloff": 9}]})",
+     "attractors[0].falloff: unknown falloff 9"},
     {"UnknownTopLevelField", R"({"bodiess": []})", "bodiess: unknown field"},
     {"UnknownNestedField", R"({"bodies": [{"shapes": [{"circle": {"radius": 1, "centre": {}}}]}]})",
      "bodies[0].shapes[0].circle.centre: unknown field"},

@@ -85,7 +85,11 @@ TEST(V3Scenes, HumanHasV3sBodiesShapesAndJoints) {
 // The first column falls about 40 m (2.8 s) onto its rows of tiles; by 4 s each of its 25
 // ragdolls lies on its row, whole. A hip at rest sits at least 0.345 m above the tiles' centre
 // line (tile half-size 0.25 plus hip radius 0.095) and, lying or crumpled, below 1.2 m (0.95 m
-// standing); a ragdoll that fell through the tiles or still bounces fails.
+// standing); a ragdoll that fell through the tiles or still bounces fails. Since joint
+// feedback is capped at max_correction_speed, the joints the 26 m/s landing pulls up to 5 cm
+// apart close at 1.5 m/s, and some ragdolls still slide or slump at 4 s (measured: 0.2 m/s,
+// one in each row topples over slowly and is at rest by 5.4 s, just before the rain recycles
+// it). So the hips are held below 0.5 m/s: a bounce off the tiles leaves at metres per second.
 TEST(V3Scenes, RainRagdollsLandWhole) {
   World w = build("rain");
   std::unique_ptr<scenes::SceneDriver> driver = scenes::builtin_driver("rain");
@@ -101,7 +105,7 @@ TEST(V3Scenes, RainRagdollsLandWhole) {
       const double height = hip.center.y() - 45.0 * row;
       EXPECT_GT(height, 0.3) << "row " << row << " ragdoll " << k;
       EXPECT_LT(height, 1.2) << "row " << row << " ragdoll " << k;
-      EXPECT_LT(hip.linear_velocity.norm(), 0.1) << "row " << row << " ragdoll " << k;
+      EXPECT_LT(hip.linear_velocity.norm(), 0.5) << "row " << row << " ragdoll " << k;
     }
   }
   // Joints hold within a few centimetres (the limits and springs of v3's ragdoll).

@@ -405,6 +405,17 @@ std::vector<v1::Edit> edit_templates(const v1::CreateWorldReply& world) {
   handle(e.mutable_set_awake()->mutable_body(), 1);
   e.mutable_set_awake()->set_awake(false);
   edits.push_back(e);
+  e.Clear();
+  handle(e.mutable_set_constant_force()->mutable_body(), 1);
+  e.mutable_set_constant_force()->mutable_force()->set_x(2);
+  e.mutable_set_constant_force()->set_torque(0.5);
+  edits.push_back(e);
+  e.Clear();
+  v1::Attractor* pull = e.mutable_set_attractors()->add_attractors();
+  pull->mutable_point()->set_y(3);
+  pull->set_strength(5);
+  pull->set_min_distance(1);
+  edits.push_back(e);
   return edits;
 }
 

@@ -36,7 +36,8 @@ struct SceneJoint {
 struct SceneDef {
   WorldSettings settings;
   std::vector<SceneBody> bodies;
-  std::vector<SceneJoint> joints;  // created after every body, in order
+  std::vector<SceneJoint> joints;        // created after every body, in order
+  std::vector<AttractorDef> attractors;  // World::set_attractors, in order
 };
 
 // Bounds on what building a scene or applying edits may do, for servers that take them from

@@ -51,6 +51,8 @@ struct Body {
   double w = 0.0;
   Vec2 force = Vec2::Zero();  // applied for the next tick
   double torque = 0.0;
+  Vec2 constant_force = Vec2::Zero();  // applied every tick until changed
+  double constant_torque = 0.0;
 
   double mass = 0.0, inv_mass = 0.0;
   double inertia = 0.0, inv_inertia = 0.0;  // about the centre of mass
@@ -174,6 +176,7 @@ struct WorldSnapshot {
   std::vector<JointId> pending_joint_events;  // destroyed with a body, reported next step
   std::vector<int> awake_bodies;              // in the world's own order
   std::vector<int> move_buffer;               // shapes whose boxes moved since the last step
+  std::vector<AttractorDef> attractors;       // in the world's order
   uint64_t state_hash = 0;                    // World::state_hash() when it was taken
 };
 

@@ -51,6 +51,32 @@ struct BodyDef {
   bool awake = true;                    // created awake or asleep
   bool enable_sleep = true;             // false keeps this body (and its island) awake
   uint64_t user_data = 0;               // carried, never interpreted
+  // A force at the centre of mass and a torque that act every tick until changed
+  // (World::set_constant_force), unlike World::apply_force, which lasts one tick. Dynamic
+  // bodies only; finite, at most kMaxInputMagnitude.
+  Vec2 constant_force = Vec2::Zero();  // N
+  double constant_torque = 0.0;        // N m
+};
+
+// How an attractor's pull changes with the distance d from its point.
+enum class Falloff {
+  kConstant = 0,       // the same pull at any distance
+  kInverseSquare = 1,  // strength / d^2 (strength is the pull at 1 m)
+};
+
+// A pull toward a point (a push away for negative strength), felt by every dynamic body with a
+// shape whose filter category_bits meet mask_bits, applied where gravity is (every substep,
+// at the body's centre of mass, from its position at the substep's start). Inside
+// min_distance the pull falls linearly to zero at the point (a uniform ball's gravity), so a
+// body passing through the point is not flung out. World::set_attractors.
+struct AttractorDef {
+  Vec2 point = Vec2::Zero();  // m, world; finite
+  double strength = 0.0;      // finite: m/s^2 (per_mass) or N; inverse square: at 1 m
+  Falloff falloff = Falloff::kConstant;
+  double min_distance = 0.5;          // m, > 0, finite
+  bool per_mass = true;               // strength is an acceleration, like gravity (an orbit's
+                                      // G M for inverse square); false: a force in N
+  uint64_t mask_bits = ~uint64_t{0};  // bodies with a shape whose category_bits & mask_bits != 0
 };
 
 // Collision filtering: two shapes collide when (a.category & b.mask) != 0 and
@@ -133,5 +159,7 @@ Status validate_settings(const WorldSettings& s);
 Status validate_body_def(const BodyDef& def);
 Status validate_shape_def(const ShapeDef& def);
 Status validate_chain_def(const ChainDef& def);
+// `field` starts the message ("attractors[2]" gives "attractors[2].strength: ...").
+Status validate_attractor(const AttractorDef& def, const std::string& field);
 
 }  // namespace fulcrum

@@ -25,6 +25,8 @@ struct BodyState {
   double rotational_inertia = 0.0;      // about the centre of mass, kg m^2
   bool awake = false;
   uint64_t user_data = 0;
+  Vec2 constant_force = Vec2::Zero();  // N, every tick until changed (BodyDef)
+  double constant_torque = 0.0;        // N m
 };
 
 struct ShapeInfo {
@@ -138,6 +140,14 @@ class World {
   Status apply_torque(BodyId id, double torque);
   Status apply_linear_impulse(BodyId id, const Vec2& impulse, const Vec2& point);
   Status apply_angular_impulse(BodyId id, double impulse);
+  // A force at the centre of mass (N) and a torque (N m) that act every tick from the next on,
+  // until set again (zeros: none). Replaces the body's previous constant force and torque;
+  // wakes it when either is non-zero. Ignored for static and kinematic bodies, like forces.
+  Status set_constant_force(BodyId id, const Vec2& force, double torque);
+  // Replaces the world's attractors (AttractorDef), checked whole first. Like gravity they
+  // wake nothing: a sleeping body feels them once something wakes it.
+  Status set_attractors(const std::vector<AttractorDef>& attractors);
+  const std::vector<AttractorDef>& attractors() const;
   Status set_awake(BodyId id, bool awake);
   Status set_shape_material(ShapeId id, double friction, double restitution);
   Status set_shape_filter(ShapeId id, const Filter& filter);

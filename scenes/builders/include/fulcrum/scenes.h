@@ -108,6 +108,58 @@ struct HumanOptions {
 };
 int add_human(SceneDef* scene, const HumanOptions& options);
 
+// A static box ground placed anywhere: its top surface's centre at `center`, turned by
+// `angle` about that point, `2 half_width` long and `thickness` thick (hand_scenes.cpp).
+// Returns its index in scene->bodies.
+struct GroundOptions {
+  Vec2 center = Vec2::Zero();  // centre of the top surface, m
+  double half_width = 50.0;    // m, > 0
+  double angle = 0.0;          // rad: the surface's slope (counter-clockwise)
+  double thickness = 2.0;      // m, > 0
+  double friction = 0.6;       // >= 0
+};
+int add_ground(SceneDef* scene, const GroundOptions& options);
+
+// A chain of `links` jointed links (capsules or boxes) hanging from a static anchor at
+// `anchor`, laid out along `angle` (0: to the right, horizontal: released it swings down, as
+// HARD_CASES 10), link i's far end jointed to link i + 1's near end, the first link's near end
+// to the anchor. end_mass > 0 adds a ball of end_mass times one link's mass (radius
+// end_radius) jointed to the last link's far end, its centre end_radius beyond it (HARD_CASES
+// 10 and 19: 100 and 1000). Jointed links do not collide with each other. Returns the index of
+// the anchor body in scene->bodies (the links, then the ball, follow it).
+struct JointChainOptions {
+  enum class LinkShape { kCapsule = 0, kBox = 1 };
+  enum class JointKind { kRevolute = 0, kWeld = 1 };
+  Vec2 anchor = Vec2(0.0, 20.0);  // m
+  int links = 20;                 // >= 1
+  double link_length = 1.0;       // m, joint to joint, > link_width
+  double link_width = 0.25;       // m, > 0: the capsule's diameter or the box's height
+  LinkShape shape = LinkShape::kCapsule;
+  JointKind joint = JointKind::kRevolute;
+  double angle = 0.0;       // rad: direction from the anchor along the chain
+  double density = 1.0;     // kg/m^2, > 0
+  double friction = 0.6;    // >= 0
+  double end_mass = 0.0;    // >= 0: the ball's mass in link masses (0: no ball)
+  double end_radius = 0.5;  // m, > 0
+};
+int add_joint_chain(SceneDef* scene, const JointChainOptions& options);
+
+// A house of cards on the ground: `levels` storeys; storey k (from 0 at the bottom) is
+// levels - k tents of two cards leaning `lean` from the vertical against each other, with a
+// flat card across each pair of neighbouring tents' apexes, on which the next storey stands.
+// (3 n^2 + n) / 2 cards for n levels. Cards are boxes card_length x card_thickness, created
+// resting (feet on the floor below, apexes touching). Returns the index of the first card.
+struct CardHouseOptions {
+  Vec2 origin = Vec2::Zero();    // centre of the bottom storey's floor line, m
+  int levels = 3;                // >= 1
+  double card_length = 1.0;      // m, > 0
+  double card_thickness = 0.05;  // m, > 0, <= card_length / 20
+  double lean = 0.35;            // rad from the vertical, in [0.05, 0.45]
+  double friction = 0.6;         // >= 0
+  double density = 1.0;          // kg/m^2, > 0
+};
+int add_card_house(SceneDef* scene, const CardHouseOptions& options);
+
 // Creates a scene's bodies (with shapes and chains) and joints in an existing world, in order;
 // its settings are ignored. Returns the new bodies' handles, in the scene's order. On error
 // what was created before it stays.
