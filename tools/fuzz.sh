@@ -65,9 +65,11 @@ fuzz_one() {
   inputs=("$dir/fuzz-seeds/$t")
   [ -d "$FULCRUM_ROOT/tests/fuzz/findings/$t" ] && inputs+=("$FULCRUM_ROOT/tests/fuzz/findings/$t")
   # The first directory receives the new inputs; the others are only read. -timeout: an input
-  # that takes 20 s under ASan is a finding (slow-unit). -rss_limit_mb: the same for memory. No
-  # -max_len: libFuzzer takes the largest seed's, so no seed is cut short.
-  "$dir/bin/fulcrum_fuzz_$t" "$corpus" "${inputs[@]}" -max_total_time="$seconds" -timeout=20 \
+  # that takes 20 s under ASan is a finding (slow-unit); FULCRUM_FUZZ_TIMEOUT raises it for long
+  # runs on a loaded machine. -rss_limit_mb: the same for memory. No -max_len: libFuzzer takes
+  # the largest seed's, so no seed is cut short.
+  "$dir/bin/fulcrum_fuzz_$t" "$corpus" "${inputs[@]}" -max_total_time="$seconds" \
+    -timeout="${FULCRUM_FUZZ_TIMEOUT:-20}" \
     -rss_limit_mb=2560 -artifact_prefix="$artifacts/" -print_final_stats=1 \
     > "$dir/fuzz-logs/$t.log" 2>&1
 }
