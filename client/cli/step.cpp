@@ -54,30 +54,31 @@ int run_step(const Invocation& inv) {
   }
   auto client = connect_from_args(inv, &exit_code);
   if (!client) return exit_code;
-  Result<client::StepResult> r = Status();
   uint64_t samples = 0;
-  if (csv_path) {
-    std::ofstream file;
-    const bool to_stdout = *csv_path == "-";
-    if (!to_stdout) {
-      file.open(*csv_path, std::ios::binary | std::ios::trunc);
-      if (!file) return inv.fail("--trajectory: cannot write " + *csv_path);
-    }
-    std::ostream& csv = to_stdout ? inv.out : file;
+  std::ofstream file;
+  const bool to_file = csv_path && *csv_path != "-";
+  if (to_file) {
+    file.open(*csv_path, std::ios::binary | std::ios::trunc);
+    if (!file) return inv.fail("--trajectory: cannot write " + *csv_path);
+  }
+  std::ostream& csv = to_file ? file : inv.out;
+  auto run = [&]() -> Result<client::StepResult> {
+    if (!csv_path) return client->step(*world, static_cast<uint32_t>(*ticks), expected);
     csv << "tick,state_hash,body_index,body_generation,x,y,angle,vx,vy,angular_velocity,awake\n";
-    r = client->step_trajectory(*world, trajectory, [&](const client::TrajectorySample& s) {
+    return client->step_trajectory(*world, trajectory, [&](const client::TrajectorySample& s) {
       for (const client::BodyFrame& b : s.bodies) write_csv_row(csv, s, b);
       ++samples;
       return csv ? Status() : Status(StatusCode::kInternal, "--trajectory: writing failed");
     });
-    if (!to_stdout) file.close();
-    if (r.ok() && !to_stdout && !file) return inv.fail("--trajectory: cannot write " + *csv_path);
-    if (to_stdout) {
-      if (!r.ok()) return inv.fail(r.status().message());
-      return kExitOk;  // stdout holds the CSV alone
-    }
-  } else {
-    r = client->step(*world, static_cast<uint32_t>(*ticks), expected);
+  };
+  Result<client::StepResult> r = run();
+  if (to_file) {
+    file.close();
+    if (r.ok() && !file) return inv.fail("--trajectory: cannot write " + *csv_path);
+  }
+  if (csv_path && !to_file) {
+    if (!r.ok()) return inv.fail(r.status().message());
+    return kExitOk;  // stdout holds the CSV alone
   }
   if (!r.ok()) return inv.fail(r.status().message());
   char ms[32];
