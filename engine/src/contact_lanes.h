@@ -58,8 +58,11 @@ struct LaneRule {
   bool use_bias = true;       // position feedback in this pass
   bool track_max = false;     // keep each point's largest normal impulse (for restitution)
   bool want_largest = false;  // return the largest corrective impulse (for early exit)
-  Softness soft;              // between two dynamic bodies
-  Softness static_soft;       // with a body of infinite mass (static, kinematic)
+  // The bodies moved since the separations were computed: each lane refreshes its points'
+  // separations before it is solved (what update_separations does, fused into the pass).
+  bool refresh_separation = false;
+  Softness soft;         // between two dynamic bodies
+  Softness static_soft;  // with a body of infinite mass (static, kinematic)
 };
 
 // The coloured blocks of one tick. Blocks [colour_start[c], colour_start[c + 1]) hold colour

@@ -692,9 +692,13 @@ void WorldImpl::solve(const std::vector<int>& awake) {
     for_chunks(workers, awake.size(), 256, [&](size_t lo, size_t hi) {
       integrate_positions(s, h, set.max_linear_speed, lo + 1, hi + 1);
     });
-    if (coloured) update_separations(coloured_contacts, s.bodies.data(), workers);
+    // The bodies moved: the first relax pass refreshes the lanes' separations as it goes.
+    if (coloured && set.relax_iterations == 0) {
+      update_separations(coloured_contacts, s.bodies.data(), workers);
+    }
     for (int it = 0; it < set.relax_iterations; ++it) {
       solve_joints(false);
+      lane_relax.refresh_separation = it == 0;
       if (contact_pass(relax, lane_relax) < set.early_exit_tolerance) break;
     }
   }
