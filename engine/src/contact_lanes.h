@@ -79,7 +79,8 @@ struct ColouredContacts {
 
 class WorkerPool;
 
-// Colours rows[0, n) of `s` (prepared, in id order) and packs them into blocks.
+// Colours rows[0, n) of `s` (prepared, in id order) and packs them into blocks, with each
+// lane's separations computed from the bodies' motion as update_separations would.
 void colour_contacts(const SolverScratch& s, ColouredContacts* out, WorkerPool* pool);
 // Copies the accumulated impulses back into the rows (for restitution and storage).
 void unpack_impulses(const ColouredContacts& cc, SolverScratch* s, WorkerPool* pool);
@@ -109,7 +110,7 @@ void separation_x4(ContactBlock*, int, int, const SolverBody*);
 inline constexpr int kBlocksPerChunk = 4;
 
 // The current separation of every lane's points, from the bodies' motion since the tick began;
-// called once the blocks are packed and after every position update.
+// needed after a position update that no relax pass follows (LaneRule::refresh_separation).
 void update_separations(ColouredContacts& cc, const SolverBody* bodies, WorkerPool* pool);
 
 // One pass (solve or warm start) over every colour, then the overflow one lane at a time.
