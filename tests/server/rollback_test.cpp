@@ -119,7 +119,9 @@ TEST_F(RollbackTest, ARemotePlayersChangeOfInputRollsBackExactlyTheTicksAfterIt)
   v1::JoinSessionReply p1 = join(kBodies[0]);
   v1::JoinSessionReply p2 = join(kBodies[1]);
   ASSERT_EQ(p1.first_input_tick(), 2);
-  auto created = PredictedWorld::create(p1);
+  client::PredictedWorldOptions options;
+  options.max_lead = 12;
+  auto created = PredictedWorld::create(p1, options);
   ASSERT_TRUE(created.ok()) << created.status().message();
   PredictedWorld& predicted = **created;
 
@@ -140,6 +142,8 @@ TEST_F(RollbackTest, ARemotePlayersChangeOfInputRollsBackExactlyTheTicksAfterIt)
     send(p1, t, v1::EditBatch());
   }
   EXPECT_EQ(predicted.lead(), 12);
+  EXPECT_EQ(predicted.advance(v1::EditBatch()).status().code(), StatusCode::kFailedPrecondition)
+      << "max_lead: 12 ticks ahead, the client waits for the server";
   for (int64_t t = 2; t < 12; ++t) {
     send(p2, t, t == 6 ? impulse(kBodies[1], 1.5, 2.0) : v1::EditBatch());
   }
@@ -168,6 +172,15 @@ TEST_F(RollbackTest, ARemotePlayersChangeOfInputRollsBackExactlyTheTicksAfterIt)
   Result<BodyState> box = predicted.predicted_world().body_state(BodyId{kBodies[1], 1});
   ASSERT_TRUE(box.ok());
   EXPECT_GT(box->linear_velocity.norm(), 0.5) << box->linear_velocity.transpose();
+
+  // An input the engine refuses (no body 999) changes nothing.
+  const uint64_t before = predicted.predicted_world().state_hash();
+  Result<int64_t> refused = predicted.advance(impulse(999, 1.0, 0.0));
+  EXPECT_FALSE(refused.ok());
+  EXPECT_EQ(refused.status().message().rfind("tick 12: input.edits[0]", 0), 0u)
+      << refused.status().message();
+  EXPECT_EQ(predicted.predicted_tick(), 12);
+  EXPECT_EQ(predicted.predicted_world().state_hash(), before);
   (*watch)->cancel();
 }
 

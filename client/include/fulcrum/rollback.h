@@ -93,7 +93,7 @@ class PredictedWorld {
   // (under SEAL_RULE_ALL_INPUTS the session waits for it). FAILED_PRECONDITION before a start,
   // after a desync, or when the predicted world is max_lead ticks past the confirmed one (wait
   // for the server); an input the engine refuses is returned as the engine words it, prefixed
-  // "input.", and nothing changes.
+  // "tick T: input.", and nothing changes.
   Result<int64_t> advance(const v1::EditBatch& input);
 
   // The world as the server confirmed it, at confirmed_tick().
