@@ -9,6 +9,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <deque>
+#include <functional>
 #include <mutex>
 #include <thread>
 
@@ -202,16 +203,72 @@ TEST_F(RollbackTest, OptionsAndOrderAreChecked) {
   EXPECT_EQ((*created)->on_event(confirmed).code(), StatusCode::kFailedPrecondition);
 }
 
-// One predicting player of the random session: its game loop plays up to kLead ticks ahead of
-// the confirmed world, pushing its box with an input that changes every `hold` ticks until
-// tick kQuiet, and sends each input for the tick advance() names.
+// One predicting player: its PredictedWorld fed by its watch, and its game loop (play()).
 struct Predictor {
   std::mutex mu;
   std::condition_variable cv;
   std::unique_ptr<PredictedWorld> world;
   std::vector<std::string> errors;
-  client::RollbackCounters at_quiet;  // the counters once tick kQuiet was confirmed
+  int64_t quiet = -1;                 // the first tick of empty inputs
+  client::RollbackCounters at_quiet;  // the counters once tick `quiet` was confirmed
   bool quiet_seen = false;
+  int64_t late = 0;  // inputs the server refused because their tick was sealed already
+
+  Result<std::unique_ptr<client::Subscription>> watch(client::Client* c, uint64_t world_id,
+                                                      const v1::JoinSessionReply& me) {
+    auto created = PredictedWorld::create(me);
+    if (!created.ok()) return created.status();
+    world = std::move(created).value();
+    return c->watch_session(
+        world_id,
+        [this](const v1::SessionEvent& e) {
+          std::lock_guard<std::mutex> lock(mu);
+          Status st = world->on_event(e);
+          if (!st.ok()) errors.push_back(st.message());
+          if (world->confirmed_tick() == quiet + 1 && !quiet_seen) {
+            at_quiet = world->counters();
+            quiet_seen = true;
+          }
+          cv.notify_all();
+        },
+        &me);
+  }
+
+  // The game loop: plays every tick up to `lead` ticks past the confirmed world until tick
+  // `end`, with input(tick), and sends each input for the tick advance() named.
+  void play(client::Client* c, uint64_t world_id, const v1::JoinSessionReply& me, int64_t lead,
+            int64_t end, const std::function<v1::EditBatch(int64_t)>& input) {
+    for (;;) {
+      std::unique_lock<std::mutex> lock(mu);
+      if (!cv.wait_for(lock, 20s, [&] {
+            return !errors.empty() || (world->started() && world->lead() < lead) ||
+                   world->predicted_tick() >= end;
+          })) {
+        errors.push_back("no confirmed tick for 20 s");
+        return;
+      }
+      if (!errors.empty() || world->predicted_tick() >= end) return;
+      const int64_t tick = world->predicted_tick();
+      const v1::EditBatch batch = input(tick);
+      Result<int64_t> played = world->advance(batch);
+      lock.unlock();
+      if (!played.ok() || *played != tick) {
+        std::lock_guard<std::mutex> relock(mu);
+        errors.push_back("advance: " + played.status().message());
+        return;
+      }
+      auto sent = c->send_input(world_id, me, tick, batch);
+      if (!sent.ok()) {
+        std::lock_guard<std::mutex> relock(mu);
+        if (sent.status().code() == StatusCode::kFailedPrecondition) {
+          ++late;
+        } else {
+          errors.push_back("send: " + sent.status().message());
+          return;
+        }
+      }
+    }
+  }
 };
 
 constexpr int64_t kQuiet = 140;  // inputs are empty from this tick on
@@ -243,23 +300,8 @@ TEST_F(RollbackTest, ThreePlayersWithRandomInputsStayOnTheServersHashes) {
   Predictor predictors[2];
   std::vector<std::unique_ptr<client::Subscription>> watches;
   for (int i = 0; i < 2; ++i) {
-    Predictor& p = predictors[i];
-    auto created = PredictedWorld::create(players[i]);
-    ASSERT_TRUE(created.ok());
-    p.world = std::move(created).value();
-    auto watch = client_->watch_session(
-        world_,
-        [&p](const v1::SessionEvent& e) {
-          std::lock_guard<std::mutex> lock(p.mu);
-          Status st = p.world->on_event(e);
-          if (!st.ok()) p.errors.push_back(st.message());
-          if (p.world->confirmed_tick() == kQuiet + 1 && !p.quiet_seen) {
-            p.at_quiet = p.world->counters();
-            p.quiet_seen = true;
-          }
-          p.cv.notify_all();
-        },
-        &players[i]);
+    predictors[i].quiet = kQuiet;
+    auto watch = predictors[i].watch(client_.get(), world_, players[i]);
     ASSERT_TRUE(watch.ok()) << watch.status().message();
     watches.push_back(std::move(watch).value());
   }
@@ -290,34 +332,9 @@ TEST_F(RollbackTest, ThreePlayersWithRandomInputsStayOnTheServersHashes) {
   ASSERT_TRUE(bot_watch.ok());
 
   auto play = [&](int slot) {
-    Predictor& p = predictors[slot];
     auto c = testing_support::connect(*server_);
-    for (;;) {
-      std::unique_lock<std::mutex> lock(p.mu);
-      if (!p.cv.wait_for(lock, 20s, [&] {
-            return !p.errors.empty() || (p.world->started() && p.world->lead() < kLead) ||
-                   p.world->predicted_tick() >= kEnd;
-          })) {
-        p.errors.push_back("no confirmed tick for 20 s");
-        return;
-      }
-      if (!p.errors.empty() || p.world->predicted_tick() >= kEnd) return;
-      const int64_t tick = p.world->predicted_tick();
-      const v1::EditBatch input = random_input(slot, tick);
-      Result<int64_t> played = p.world->advance(input);
-      lock.unlock();
-      if (!played.ok() || *played != tick) {
-        std::lock_guard<std::mutex> relock(p.mu);
-        p.errors.push_back("advance: " + played.status().message());
-        return;
-      }
-      auto sent = c->send_input(world_, players[slot], tick, input);
-      if (!sent.ok()) {
-        std::lock_guard<std::mutex> relock(p.mu);
-        p.errors.push_back("send: " + sent.status().message());
-        return;
-      }
-    }
+    predictors[slot].play(c.get(), world_, players[slot], kLead, kEnd,
+                          [slot](int64_t tick) { return random_input(slot, tick); });
   };
   std::thread loops[] = {std::thread(play, 0), std::thread(play, 1)};
   for (std::thread& t : loops) t.join();
@@ -343,6 +360,7 @@ TEST_F(RollbackTest, ThreePlayersWithRandomInputsStayOnTheServersHashes) {
     EXPECT_EQ(n.rollbacks + n.predictions_held, kEnd);
     // Turn by turn the server seals a tick only once this player sent its input for it.
     EXPECT_EQ(n.caught_up, 0);
+    EXPECT_EQ(p.late, 0) << "turn by turn no tick is sealed before its inputs arrive";
     // From tick kQuiet every input is empty; once it is confirmed, every prediction holds:
     // no rollback, and the predicted hash is the server's at each of ticks kQuiet + 2 to kEnd.
     ASSERT_TRUE(p.quiet_seen);
@@ -362,6 +380,67 @@ TEST_F(RollbackTest, ThreePlayersWithRandomInputsStayOnTheServersHashes) {
   }
   for (auto& w : watches) w->cancel();
   (*bot_watch)->cancel();
+}
+
+// On the server's clock (SEAL_RULE_ON_STEP at 60 Hz), two predicting players play up to
+// input_delay + 4 ticks past the confirmed world. Timing decides how many predictions hold,
+// not whether the copies agree: every confirmed hash is the server's, every confirmed tick is
+// a held prediction, a rollback or a catch-up, and the other player's changes of input roll
+// the predicted world back.
+TEST_F(RollbackTest, TwoPlayersOnTheServersClock) {
+  constexpr int64_t kDelay = 3;
+  constexpr int64_t kPlayed = 150;
+  v1::SessionOptions options;
+  options.set_max_players(2);
+  options.set_input_delay(kDelay);
+  options.set_missing_input(v1::MISSING_INPUT_REPEAT_LAST);
+  options.set_seal(v1::SEAL_RULE_ON_STEP);
+  ASSERT_TRUE(client_->open_session(world_, options).ok());
+  const v1::JoinSessionReply players[] = {join(kBodies[0]), join(kBodies[1])};
+  Predictor predictors[2];
+  std::vector<std::unique_ptr<client::Subscription>> watches;
+  for (int i = 0; i < 2; ++i) {
+    auto watch = predictors[i].watch(client_.get(), world_, players[i]);
+    ASSERT_TRUE(watch.ok()) << watch.status().message();
+    watches.push_back(std::move(watch).value());
+  }
+  for (Predictor& p : predictors) {
+    std::unique_lock<std::mutex> lock(p.mu);
+    ASSERT_TRUE(p.cv.wait_for(lock, 20s, [&] { return p.world->started(); }));
+    // On the clock the first input this player can send is input_delay past the start.
+    ASSERT_EQ(p.world->confirmed_tick(), 0);
+    ASSERT_EQ(p.world->predicted_tick(), kDelay);
+  }
+  ASSERT_TRUE(client_->set_run_mode(world_, client::RunMode::kRealTime).ok());
+  auto play = [&](int slot) {
+    auto c = testing_support::connect(*server_);
+    predictors[slot].play(c.get(), world_, players[slot], kDelay + 4, kPlayed,
+                          [slot](int64_t tick) { return random_input(slot, tick); });
+  };
+  std::thread loops[] = {std::thread(play, 0), std::thread(play, 1)};
+  for (std::thread& t : loops) t.join();
+  ASSERT_TRUE(client_->set_run_mode(world_, client::RunMode::kPaused).ok());
+  Result<client::WorldSummary> server = client_->get_world(world_);
+  ASSERT_TRUE(server.ok());
+  ASSERT_GE(server->tick, kPlayed - kDelay - 4);
+
+  for (int i = 0; i < 2; ++i) {
+    Predictor& p = predictors[i];
+    std::unique_lock<std::mutex> lock(p.mu);
+    ASSERT_TRUE(p.cv.wait_for(
+        lock, 20s, [&] { return !p.errors.empty() || p.world->confirmed_tick() >= server->tick; }))
+        << "player " << i + 1 << " confirmed through " << p.world->confirmed_tick();
+    ASSERT_TRUE(p.errors.empty()) << "player " << i + 1 << ": " << p.errors.front();
+    SCOPED_TRACE("player " + std::to_string(i + 1));
+    const client::RollbackCounters& n = p.world->counters();
+    EXPECT_EQ(n.ticks_confirmed, server->tick);
+    EXPECT_EQ(n.ticks_advanced, kPlayed - kDelay);
+    EXPECT_EQ(n.predictions_held + n.rollbacks + n.caught_up, n.ticks_confirmed);
+    EXPECT_GT(n.rollbacks, 0);
+    EXPECT_LT(p.late, n.ticks_advanced) << "some inputs arrived in time";
+    EXPECT_EQ(p.world->confirmed_world().state_hash(), server->state_hash);
+  }
+  for (auto& w : watches) w->cancel();
 }
 
 }  // namespace
