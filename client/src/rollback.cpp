@@ -44,8 +44,8 @@ Status PredictedWorld::start(const v1::SessionEvent& event) {
   FULCRUM_RETURN_IF_ERROR(confirmed_.on_event(event));
   const v1::SessionStart& s = event.start();
   session_ = s.options();
-  // Taken from a world that was just checked against the start's hash: cannot be refused.
-  FULCRUM_RETURN_IF_ERROR(predicted_.restore(confirmed_.world().snapshot()));
+  // A copy of the world that was just checked against the start's hash.
+  predicted_.copy_state(confirmed_.world());
   started_ = true;
   stopped_ = false;
   skip_ = s.applied_batches();
@@ -117,7 +117,7 @@ Status PredictedWorld::predict_one(bool strict) {
 }
 
 Status PredictedWorld::roll_back_to_confirmed(int64_t present) {
-  FULCRUM_RETURN_IF_ERROR(predicted_.restore(confirmed_.world().snapshot()));
+  predicted_.copy_state(confirmed_.world());
   predictions_.clear();
   while (predicted_.tick() < present) FULCRUM_RETURN_IF_ERROR(predict_one(false));
   return {};
@@ -179,8 +179,8 @@ Status PredictedWorld::confirm(const v1::SessionEvent& event) {
   if (predictions_.empty()) {
     // The predicted world was not ahead: it becomes the confirmed one.
     ++counters_.caught_up;
-    Status set = predicted_.restore(confirmed_.world().snapshot());
-    return set.ok() ? set : stop(set);
+    predicted_.copy_state(confirmed_.world());
+    return {};
   }
   const Predicted held = std::move(predictions_.front());
   predictions_.pop_front();

@@ -410,4 +410,12 @@ Status World::restore(const WorldSnapshot& s) {
   return {};
 }
 
+void World::copy_state(const World& other) {
+  if (this == &other) return;
+  // Copy-assignment reuses this world's allocations. The pool pointer is set by each step.
+  *impl_ = *other.impl_;
+  impl_->pool = nullptr;
+  impl_->edit_work = 0;  // counted since the world was built or restored, as after restore
+}
+
 }  // namespace fulcrum

@@ -41,6 +41,28 @@ TEST_P(SnapshotRoundTrip, RestoredWorldContinuesBitForBit) {
   EXPECT_EQ(copy.snapshot().state_hash, original.snapshot().state_hash);
 }
 
+// copy_state: a copy continues bit for bit like its original, whatever the copy held before
+// and whatever its thread count, and the two are independent afterwards.
+TEST_P(SnapshotRoundTrip, CopiedWorldContinuesBitForBit) {
+  World original = build(GetParam());
+  for (int i = 0; i < 120; ++i) original.step();
+  World copy = build("tumbler");  // different content, to be overwritten whole
+  ASSERT_TRUE(copy.set_threads(2).ok());
+  for (int i = 0; i < 10; ++i) copy.step();
+  copy.copy_state(original);
+  EXPECT_EQ(copy.state_hash(), original.state_hash());
+  EXPECT_EQ(copy.tick(), original.tick());
+  EXPECT_EQ(copy.threads(), 2);
+  EXPECT_EQ(first_divergence(original, copy, 300), -1);
+  // Independent: a kick to the copy leaves the original on a third world's path.
+  World witness;
+  witness.copy_state(original);
+  const BodyId kicked = copy.bodies().back();
+  ASSERT_TRUE(copy.set_linear_velocity(kicked, Vec2(0.0, 5.0)).ok());
+  EXPECT_NE(copy.state_hash(), original.state_hash());
+  EXPECT_EQ(first_divergence(original, witness, 30), -1);
+}
+
 INSTANTIATE_TEST_SUITE_P(Scenes, SnapshotRoundTrip,
                          ::testing::Values("many_pyramids", "ragdolls", "rope", "cloth", "bounce",
                                            "mixed", "vertical_stack", "bridge"));

@@ -212,6 +212,11 @@ class World {
   // records, and that the restored state hashes to snapshot.state_hash). On error the world is
   // unchanged and the message names the record and field at fault.
   Status restore(const WorldSnapshot& snapshot);
+  // Makes this world a copy of `other` as it stands: the same state, so the two continue bit
+  // for bit alike. Unlike restore it checks nothing and rebuilds nothing (the state is already
+  // a world's), so it costs only copying the state's arrays: a rollback's fast path. This
+  // world keeps its own thread count and contact limit.
+  void copy_state(const World& other);
 
   // --- Queries (results in a deterministic order) --------------------------------------------
   // The nearest hit along origin -> origin + translation (ties broken by shape id).
