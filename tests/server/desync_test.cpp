@@ -11,12 +11,18 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <map>
 #include <mutex>
+#include <set>
 
+#include "confirmed_history.h"
+#include "edit_convert.h"
 #include "fulcrum/client.h"
 #include "fulcrum/fingerprint.h"
 #include "fulcrum/lockstep.h"
+#include "fulcrum/scene.h"
 #include "fulcrum/v1/service.grpc.pb.h"
+#include "scene_convert.h"
 #include "server.h"
 #include "snapshot_convert.h"
 #include "test_support.h"
@@ -482,6 +488,51 @@ TEST_F(DesyncTest, BadReportsAreRefusedNamingTheFieldAndChangeNothingForOthers) 
   EXPECT_EQ(after.hash_reports() - before.hash_reports(), 3u);
   EXPECT_EQ(after.desyncs() - before.desyncs(), 1u);
   EXPECT_EQ(after.resyncs() - before.resyncs(), 0u);
+}
+
+// The server's memory of confirmed ticks: any tick in the hash window is rebuilt from its
+// keyframe to the same snapshot the world had, across keyframe boundaries, and what fell out of
+// the window is forgotten (at most a window's worth of hashes and a keyframe before it).
+TEST(ConfirmedHistoryTest, RebuildsAnyTickInTheWindowBitForBit) {
+  Result<SceneDef> scene = parse_scene_json(pyramid_json());
+  ASSERT_TRUE(scene.ok());
+  Result<World> built = build_world(*scene);
+  ASSERT_TRUE(built.ok());
+  World world = std::move(*built);
+  server::ConfirmedHistory history;
+  history.start(world);
+  constexpr int64_t kTicks = 1500;
+  std::map<int64_t, v1::Snapshot> kept;  // the world's own snapshots of a few ticks
+  const std::set<int64_t> probes = {600, 767, 768, 769, 1000, 1023, 1024, 1025, 1300, 1500};
+  for (int64_t t = 0; t < kTicks; ++t) {
+    auto event = std::make_shared<v1::SessionEvent>();
+    v1::ReplayTick* tick = event->mutable_confirmed()->mutable_tick();
+    if (t % 37 == 0) {  // a player's push now and then, applied before the step as sealed
+      *tick->add_edits() = impulse(kTop, t % 74 == 0 ? 3.0 : -3.0);
+      ASSERT_TRUE(apply_edit_batch(&world, tick->edits(0)).ok());
+    }
+    world.step();
+    tick->set_tick(world.tick());
+    tick->set_state_hash(world.state_hash());
+    history.add(world, event);
+    if (probes.contains(world.tick())) kept[world.tick()] = snapshot_to_proto(world.snapshot());
+  }
+  // The window: the last 1024 confirmed ticks.
+  EXPECT_EQ(history.newest_hash_tick(), kTicks);
+  EXPECT_EQ(history.oldest_hash_tick(), kTicks - server::ConfirmedHistory::kHashWindow + 1);
+  EXPECT_FALSE(history.hash_after(history.oldest_hash_tick() - 1).has_value());
+  EXPECT_EQ(history.hash_after(kTicks), world.state_hash());
+  // Keyframes at 0, 256, 512...: the oldest kept is the newest at or before tick 477 (256).
+  EXPECT_TRUE(history.replay_to(256).has_value());
+  EXPECT_FALSE(history.replay_to(255).has_value()) << "before the oldest keyframe kept";
+  for (const auto& [t, expected] : kept) {
+    std::optional<server::ConfirmedHistory::Replay> replay = history.replay_to(t);
+    ASSERT_TRUE(replay.has_value()) << t;
+    EXPECT_LT(t - replay->keyframe->tick, server::ConfirmedHistory::kKeyframeEvery) << t;
+    Result<WorldSnapshot> rebuilt = server::rebuild(*replay);
+    ASSERT_TRUE(rebuilt.ok()) << rebuilt.status().message();
+    EXPECT_EQ(first_difference(expected, snapshot_to_proto(*rebuilt)), "") << "tick " << t;
+  }
 }
 
 }  // namespace
