@@ -15,9 +15,9 @@ void ConfirmedHistory::start(const World& world) {
 }
 
 void ConfirmedHistory::add(const World& world, std::shared_ptr<const v1::SessionEvent> confirmed) {
-  const int64_t tick = world.tick();
+  const int64_t tick = confirmed->confirmed().tick().tick();
   if (hashes_.empty()) first_hash_tick_ = tick;
-  hashes_.push_back(world.state_hash());
+  hashes_.push_back(confirmed->confirmed().tick().state_hash());  // hashed once, by confirm
   while (static_cast<int64_t>(hashes_.size()) > kHashWindow) {
     hashes_.pop_front();
     ++first_hash_tick_;

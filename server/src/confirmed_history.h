@@ -26,8 +26,8 @@ class ConfirmedHistory {
 
   // The world when the session opened: the first keyframe (its hash is not a confirmed one).
   void start(const World& world);
-  // After each confirmed tick (`world` just stepped it): its hash, its event, a keyframe when
-  // due; forgets what has fallen out of the window.
+  // After each confirmed tick (`world` just stepped it; `confirmed` holds its tick and hash):
+  // its hash, its event, a keyframe when due; forgets what has fallen out of the window.
   void add(const World& world, std::shared_ptr<const v1::SessionEvent> confirmed);
 
   // The confirmed hash after `tick`, when it is in the window.
