@@ -168,7 +168,7 @@ void write_lane(const SolverScratch& s, const ContactRow& row, ContactBlock* b, 
     q->ray[l] = p.ray;
     q->rbx[l] = p.rbx;
     q->rby[l] = p.rby;
-    q->separation[l] = 0.0;  // update_separations
+    q->separation[l] = 0.0;  // colour_contacts computes it once the lane is written
     q->base_separation[l] = p.base_separation;
     q->normal_mass[l] = p.normal_mass;
     q->tangent_mass[l] = p.tangent_mass;
@@ -235,7 +235,9 @@ void colour_contacts(const SolverScratch& s, ColouredContacts* out, WorkerPool* 
     const size_t hi = std::min(lo + kRowsPerChunk, n_rows);
     for (size_t k = lo; k < hi; ++k) {
       const int lane_index = lane_of_row[k];
-      write_lane(s, s.rows[k], &out->blocks[lane_index / kBlockLanes], lane_index % kBlockLanes);
+      ContactBlock* block = &out->blocks[lane_index / kBlockLanes];
+      write_lane(s, s.rows[k], block, lane_index % kBlockLanes);
+      separation_lanes<double>(*block, lane_index % kBlockLanes, s.bodies.data());
     }
   };
   const int chunks = static_cast<int>((n_rows + kRowsPerChunk - 1) / kRowsPerChunk);

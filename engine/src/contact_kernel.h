@@ -42,7 +42,7 @@ struct Lane<double> {
     std::memcpy(out, rows[0], 4 * sizeof(double));
   }
   static FULCRUM_LANE_INLINE void store_rows(const double in[4], double* const* rows) {
-    if (rows[0] != nullptr) std::memcpy(rows[0], in, 4 * sizeof(double));
+    std::memcpy(rows[0], in, 4 * sizeof(double));
   }
 };
 
@@ -70,14 +70,10 @@ struct Lane<F64x2> {
     F64x2 r1 = __builtin_shufflevector(in[2], in[3], 0, 2);  // lane 0: elements 2, 3
     F64x2 s0 = __builtin_shufflevector(in[0], in[1], 1, 3);  // lane 1
     F64x2 s1 = __builtin_shufflevector(in[2], in[3], 1, 3);
-    if (rows[0] != nullptr) {
-      store(rows[0], r0);
-      store(rows[0] + 2, r1);
-    }
-    if (rows[1] != nullptr) {
-      store(rows[1], s0);
-      store(rows[1] + 2, s1);
-    }
+    store(rows[0], r0);
+    store(rows[0] + 2, r1);
+    store(rows[1], s0);
+    store(rows[1] + 2, s1);
   }
 };
 
@@ -113,9 +109,7 @@ struct Lane<F64x4> {
   static FULCRUM_LANE_INLINE void store_rows(const F64x4 in[4], double* const* rows) {
     F64x4 out[4];
     transpose4(in[0], in[1], in[2], in[3], out);
-    for (int l = 0; l < 4; ++l) {
-      if (rows[l] != nullptr) store(rows[l], out[l]);
-    }
+    for (int l = 0; l < 4; ++l) store(rows[l], out[l]);
   }
 };
 #endif
@@ -177,9 +171,10 @@ struct LaneBodies {
   FULCRUM_LANE_INLINE void store(const ContactBlock& k, int l0, SolverBody* bodies) const {
     double* ra[kCount];
     double* rb[kCount];
+    alignas(32) double sink[2 * kCount][4];
     for (int l = 0; l < kCount; ++l) {
-      ra[l] = k.write_a[l0 + l] ? velocity_row(bodies[k.ia[l0 + l]]) : nullptr;
-      rb[l] = k.write_b[l0 + l] ? velocity_row(bodies[k.ib[l0 + l]]) : nullptr;
+      ra[l] = k.write_a[l0 + l] ? velocity_row(bodies[k.ia[l0 + l]]) : sink[2 * l];
+      rb[l] = k.write_b[l0 + l] ? velocity_row(bodies[k.ib[l0 + l]]) : sink[2 * l + 1];
     }
     const V a[4] = {vax, vay, wa, ima_row};
     const V b[4] = {vbx, vby, wb, imb_row};
@@ -217,12 +212,39 @@ FULCRUM_LANE_INLINE void warm_lanes(ContactBlock& k, int l0, SolverBody* bodies)
   v.store(k, l0, bodies);
 }
 
+// Separation now, from the bodies' motion since the tick began (anchors turned with them).
+template <class V>
+FULCRUM_LANE_INLINE void separation_lanes(ContactBlock& k, int l0, const SolverBody* bodies) {
+  using L = Lane<V>;
+  const double* ra[L::kCount];
+  const double* rb[L::kCount];
+  for (int l = 0; l < L::kCount; ++l) {
+    ra[l] = motion_row(bodies[k.ia[l0 + l]]);
+    rb[l] = motion_row(bodies[k.ib[l0 + l]]);
+  }
+  V a[4], b[4];
+  L::load_rows(ra, a);
+  L::load_rows(rb, b);
+  const V ddx = b[0] - a[0], ddy = b[1] - a[1];
+  const V qca = a[2], qsa = a[3], qcb = b[2], qsb = b[3];
+  const V nx = L::load(k.nx + l0), ny = L::load(k.ny + l0);
+  for (LanePoint& p : k.points) {
+    const V rax = L::load(p.rax + l0), ray = L::load(p.ray + l0);
+    const V rbx = L::load(p.rbx + l0), rby = L::load(p.rby + l0);
+    V ax = qca * rax - qsa * ray, ay = qsa * rax + qca * ray;
+    V bx = qcb * rbx - qsb * rby, by = qsb * rbx + qcb * rby;
+    V dx = ddx + (bx - ax), dy = ddy + (by - ay);
+    L::store(p.separation + l0, dx * nx + dy * ny + L::load(p.base_separation + l0));
+  }
+}
+
 // One pass over a group of lanes: both normal rows, then both friction rows (contact_solver.cpp
 // states the rows). Returns the largest corrective impulse of the lanes.
-template <class V>
+template <class V, bool kRefresh>
 FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, int l0, SolverBody* bodies,
                                   const LaneRule& rule) {
   using L = Lane<V>;
+  if constexpr (kRefresh) separation_lanes<V>(k, l0, bodies);
   LaneBodies<V> v(k, l0, bodies);
   const V zero = L::splat(0.0), one = L::splat(1.0);
   const V inv_h = L::splat(rule.inv_h), neg_max_speed = L::splat(-rule.max_speed);
@@ -289,56 +311,44 @@ FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, int l0, SolverBody* bodies,
   return largest;
 }
 
-// Separation now, from the bodies' motion since the tick began (anchors turned with them).
-template <class V>
-FULCRUM_LANE_INLINE void separation_lanes(ContactBlock& k, int l0, const SolverBody* bodies) {
-  using L = Lane<V>;
-  const double* ra[L::kCount];
-  const double* rb[L::kCount];
-  for (int l = 0; l < L::kCount; ++l) {
-    ra[l] = motion_row(bodies[k.ia[l0 + l]]);
-    rb[l] = motion_row(bodies[k.ib[l0 + l]]);
-  }
-  V a[4], b[4];
-  L::load_rows(ra, a);
-  L::load_rows(rb, b);
-  const V ddx = b[0] - a[0], ddy = b[1] - a[1];
-  const V qca = a[2], qsa = a[3], qcb = b[2], qsb = b[3];
-  const V nx = L::load(k.nx + l0), ny = L::load(k.ny + l0);
-  for (LanePoint& p : k.points) {
-    const V rax = L::load(p.rax + l0), ray = L::load(p.ray + l0);
-    const V rbx = L::load(p.rbx + l0), rby = L::load(p.rby + l0);
-    V ax = qca * rax - qsa * ray, ay = qsa * rax + qca * ray;
-    V bx = qcb * rbx - qsb * rby, by = qsb * rbx + qcb * rby;
-    V dx = ddx + (bx - ax), dy = ddy + (by - ay);
-    L::store(p.separation + l0, dx * nx + dy * ny + L::load(p.base_separation + l0));
-  }
-}
-
 // Blocks [first, end) of one colour (or, for the scalar path, any blocks in order).
-template <class V>
-double solve_blocks(ContactBlock* blocks, int first, int end, SolverBody* bodies,
-                    const LaneRule& rule) {
+template <class V, bool kRefresh>
+double solve_blocks_as(ContactBlock* blocks, int first, int end, SolverBody* bodies,
+                       const LaneRule& rule) {
   using L = Lane<V>;
   V largest = L::splat(0.0);
   for (int k = first; k < end; ++k) {
     // The next block's body slots, and its bodies' velocity rows, are the first things the
     // next iteration needs; fetch them while this block is solved.
+    if (k + 3 < end) {
+      const char* far = reinterpret_cast<const char*>(&blocks[k + 3]);
+      for (size_t line = 0; line < sizeof(ContactBlock); line += 64) {
+        __builtin_prefetch(far + line);
+      }
+    }
     if (k + 1 < end) {
       const ContactBlock& next = blocks[k + 1];
-      __builtin_prefetch(&next);
       for (int l = 0; l < kBlockLanes; ++l) {
         __builtin_prefetch(&bodies[next.ia[l]]);
         __builtin_prefetch(&bodies[next.ib[l]]);
       }
     }
     for (int l0 = 0; l0 < kBlockLanes; l0 += L::kCount) {
-      largest = lane_max(largest, solve_lanes<V>(blocks[k], l0, bodies, rule));
+      largest = lane_max(largest, solve_lanes<V, kRefresh>(blocks[k], l0, bodies, rule));
     }
   }
   double out = L::get(largest, 0);
   for (int l = 1; l < L::kCount; ++l) out = lane_max(out, L::get(largest, l));
   return out;
+}
+
+// The lanes' separations are refreshed first when the rule says the bodies have moved since
+// they were last computed: the same numbers update_separations gives, without a pass of its own.
+template <class V>
+double solve_blocks(ContactBlock* blocks, int first, int end, SolverBody* bodies,
+                    const LaneRule& rule) {
+  return rule.refresh_separation ? solve_blocks_as<V, true>(blocks, first, end, bodies, rule)
+                                 : solve_blocks_as<V, false>(blocks, first, end, bodies, rule);
 }
 
 template <class V>

@@ -58,8 +58,11 @@ struct LaneRule {
   bool use_bias = true;       // position feedback in this pass
   bool track_max = false;     // keep each point's largest normal impulse (for restitution)
   bool want_largest = false;  // return the largest corrective impulse (for early exit)
-  Softness soft;              // between two dynamic bodies
-  Softness static_soft;       // with a body of infinite mass (static, kinematic)
+  // The bodies moved since the separations were computed: each lane refreshes its points'
+  // separations before it is solved (what update_separations does, fused into the pass).
+  bool refresh_separation = false;
+  Softness soft;         // between two dynamic bodies
+  Softness static_soft;  // with a body of infinite mass (static, kinematic)
 };
 
 // The coloured blocks of one tick. Blocks [colour_start[c], colour_start[c + 1]) hold colour
@@ -76,7 +79,8 @@ struct ColouredContacts {
 
 class WorkerPool;
 
-// Colours rows[0, n) of `s` (prepared, in id order) and packs them into blocks.
+// Colours rows[0, n) of `s` (prepared, in id order) and packs them into blocks, with each
+// lane's separations computed from the bodies' motion as update_separations would.
 void colour_contacts(const SolverScratch& s, ColouredContacts* out, WorkerPool* pool);
 // Copies the accumulated impulses back into the rows (for restitution and storage).
 void unpack_impulses(const ColouredContacts& cc, SolverScratch* s, WorkerPool* pool);
@@ -106,7 +110,7 @@ void separation_x4(ContactBlock*, int, int, const SolverBody*);
 inline constexpr int kBlocksPerChunk = 4;
 
 // The current separation of every lane's points, from the bodies' motion since the tick began;
-// called once the blocks are packed and after every position update.
+// needed after a position update that no relax pass follows (LaneRule::refresh_separation).
 void update_separations(ColouredContacts& cc, const SolverBody* bodies, WorkerPool* pool);
 
 // One pass (solve or warm start) over every colour, then the overflow one lane at a time.

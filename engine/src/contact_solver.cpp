@@ -146,44 +146,66 @@ double max_turn_rate(double h) {
   return 3.14159265358979323846 / h;
 }
 
-// Step 1: applied forces into velocities, v2 = v1 + h M^-1 F, then damping as the decay
-// factor 1 / (1 + h c), which stays stable for any damping. Speeds are clamped.
-void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s, double h,
-                          size_t first, size_t end) {
+// Each awake body's BodyDrive for substeps of length h.
+void prepare_drives(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s, double h,
+                    size_t first, size_t end) {
   const double gx = w.settings.gravity.x(), gy = w.settings.gravity.y();
-  const double max_speed = w.settings.max_linear_speed;
   for (size_t k = first; k < end; ++k) {
     const Body& b = w.bodies[awake[k]];
-    if (!b.is_dynamic()) continue;
-    SolverBody& sb = s.bodies[k + 1];
-    // The tick's forces, the constant ones (forces.cpp) and gravity. Constant forces and
-    // attractors enter only where present, so that bodies without them keep their bits.
+    BodyDrive& d = s.drives[k];
+    d = BodyDrive{};
+    d.dynamic = b.is_dynamic();
+    if (!d.dynamic) continue;
+    // The tick's forces, the constant ones (forces.cpp) and gravity. Constant forces enter
+    // only where present, so that bodies without them keep their bits.
     double fx = b.force.x(), fy = b.force.y(), torque = b.torque;
     if (b.constant_force != Vec2::Zero() || b.constant_torque != 0.0) {
       fx += b.constant_force.x();
       fy += b.constant_force.y();
       torque += b.constant_torque;
     }
-    double ax = b.inv_mass * fx + b.gravity_scale * gx;
-    double ay = b.inv_mass * fy + b.gravity_scale * gy;
-    if (!w.attractors.empty()) {
+    d.ax = b.inv_mass * fx + b.gravity_scale * gx;
+    d.ay = b.inv_mass * fy + b.gravity_scale * gy;
+    d.dw = h * b.inv_inertia * torque;
+    d.linear_damped = b.linear_damping != 0.0;
+    if (d.linear_damped) d.linear_factor = 1.0 / (1.0 + h * b.linear_damping);
+    d.angular_damped = b.angular_damping != 0.0;
+    if (d.angular_damped) d.angular_factor = 1.0 / (1.0 + h * b.angular_damping);
+    d.dragged = b.drag != 0.0;
+    d.drag = h * b.inv_mass * b.drag;
+  }
+}
+
+// Step 1: applied forces into velocities, v2 = v1 + h M^-1 F, then damping as the decay
+// factor 1 / (1 + h c), which stays stable for any damping. Speeds are clamped. Attractors
+// pull towards where the body is now, so they are the one term worked out every substep.
+void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s, double h,
+                          size_t first, size_t end) {
+  const double max_speed = w.settings.max_linear_speed;
+  const bool attract = !w.attractors.empty();
+  for (size_t k = first; k < end; ++k) {
+    const BodyDrive& d = s.drives[k];
+    if (!d.dynamic) continue;
+    SolverBody& sb = s.bodies[k + 1];
+    double ax = d.ax, ay = d.ay;
+    if (attract) {
+      const Body& b = w.bodies[awake[k]];
       Vec2 pull = w.attraction(b, b.center + Vec2(sb.dpx, sb.dpy));
       ax += pull.x();
       ay += pull.y();
     }
     double vx = sb.vx + h * ax;
     double vy = sb.vy + h * ay;
-    double av = sb.w + h * b.inv_inertia * torque;
-    if (b.linear_damping != 0.0) {
-      double f = 1.0 / (1.0 + h * b.linear_damping);
-      vx *= f;
-      vy *= f;
+    double av = sb.w + d.dw;
+    if (d.linear_damped) {
+      vx *= d.linear_factor;
+      vy *= d.linear_factor;
     }
-    if (b.angular_damping != 0.0) av *= 1.0 / (1.0 + h * b.angular_damping);
-    if (b.drag != 0.0) {
+    if (d.angular_damped) av *= d.angular_factor;
+    if (d.dragged) {
       // Quadratic drag F = -c v |v|, taken implicitly in |v| (v2 = v1 / (1 + h c |v1| / m)):
       // stable for any c, and exact at terminal velocity, where gravity and drag balance.
-      double f = 1.0 / (1.0 + h * b.inv_mass * b.drag * std::sqrt(vx * vx + vy * vy));
+      double f = 1.0 / (1.0 + d.drag * std::sqrt(vx * vx + vy * vy));
       vx *= f;
       vy *= f;
     }
@@ -637,6 +659,7 @@ void WorldImpl::solve(const std::vector<int>& awake) {
 
   load_bodies(*this, awake, s);
   gather_contacts(*this, awake, &s.contacts);
+  s.drives.resize(awake.size());
   // Soft contacts are solved colour by colour in lanes (contact_lanes.h); rigid contacts (the
   // classic settings, with the block solver and split impulses) one by one in id order.
   const bool coloured = !rule.rigid;
@@ -645,6 +668,8 @@ void WorldImpl::solve(const std::vector<int>& awake) {
   if (workers != nullptr) workers->begin_busy();
   prepare(*this, s, h, workers);
   prepare_joints(awake, h);
+  for_chunks(workers, awake.size(), 256,
+             [&](size_t lo, size_t hi) { prepare_drives(*this, awake, s, h, lo, hi); });
   LaneRule lane_solve;
   lane_solve.inv_h = 1.0 / h;
   lane_solve.max_speed = set.max_correction_speed;
@@ -656,7 +681,6 @@ void WorldImpl::solve(const std::vector<int>& awake) {
   lane_relax.use_bias = false;
   if (coloured) {
     colour_contacts(s, &coloured_contacts, workers);
-    update_separations(coloured_contacts, s.bodies.data(), workers);
   }
   auto contact_pass = [&](const BiasRule& r, const LaneRule& lr) {
     return coloured ? solve_coloured(coloured_contacts, s.bodies.data(), lr, workers)
@@ -692,9 +716,13 @@ void WorldImpl::solve(const std::vector<int>& awake) {
     for_chunks(workers, awake.size(), 256, [&](size_t lo, size_t hi) {
       integrate_positions(s, h, set.max_linear_speed, lo + 1, hi + 1);
     });
-    if (coloured) update_separations(coloured_contacts, s.bodies.data(), workers);
+    // The bodies moved: the first relax pass refreshes the lanes' separations as it goes.
+    if (coloured && set.relax_iterations == 0) {
+      update_separations(coloured_contacts, s.bodies.data(), workers);
+    }
     for (int it = 0; it < set.relax_iterations; ++it) {
       solve_joints(false);
+      lane_relax.refresh_separation = it == 0;
       if (contact_pass(relax, lane_relax) < set.early_exit_tolerance) break;
     }
   }
@@ -724,6 +752,8 @@ void WorldImpl::prepare_reference_tick() {
   prepare(*this, s, h, nullptr);
   prepare_joints(awake, h);
   apply_spring_forces(h);
+  s.drives.resize(awake.size());
+  prepare_drives(*this, awake, s, h, 0, awake.size());
   integrate_velocities(*this, awake, s, h, 0, awake.size());
 }
 

@@ -67,9 +67,21 @@ struct ContactRowExtra {
 
 struct JointRow;
 
+// What integrate_velocities adds to one awake body every substep, worked out once per tick
+// from its Body (which is large and cold) with the very operations the substep would do, so
+// that the substeps read one small record and give the same bits.
+struct BodyDrive {
+  double ax = 0.0, ay = 0.0;                         // inv_mass f + gravity_scale g
+  double dw = 0.0;                                   // h inv_inertia torque
+  double linear_factor = 1.0, angular_factor = 1.0;  // 1 / (1 + h damping)
+  double drag = 0.0;                                 // h inv_mass drag
+  bool dynamic = false, linear_damped = false, angular_damped = false, dragged = false;
+};
+
 struct SolverScratch {
   std::vector<SolverBody> bodies;
-  std::vector<int> body_slot;  // body index -> solver slot (0 for bodies not solved)
+  std::vector<BodyDrive> drives;  // per awake body (slot k + 1's is drives[k])
+  std::vector<int> body_slot;     // body index -> solver slot (0 for bodies not solved)
   std::vector<ContactRow> rows;
   std::vector<ContactRowExtra> extras;
   std::vector<int> contacts;

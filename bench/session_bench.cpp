@@ -1,0 +1,150 @@
+// What a multiplayer session costs a client. Prints Markdown tables; figures go in
+// docs/multiplayer.md with the machine and date.
+//   fulcrum_session_bench [--repeats N]
+//
+// Rollback (fulcrum/rollback.h): when the server confirms a tick whose inputs differ from the
+// prediction, a PredictedWorld takes a snapshot of its confirmed world, restores it into the
+// predicted world and steps again up to the present. A rollback of N ticks is that snapshot,
+// restore and N steps, engine only (no network, no protobuf), on 1000-body worlds. The deepest
+// rollback that fits in one 60 Hz frame (16.7 ms) leaves nothing of the frame for the game.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "fulcrum/geometry.h"
+#include "fulcrum/scene.h"
+#include "fulcrum/scenes.h"
+#include "fulcrum/state.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using fulcrum::SceneDef;
+using fulcrum::Vec2;
+using fulcrum::World;
+
+constexpr double kFrameMs = 1000.0 / 60.0;
+
+template <typename F>
+double median_ms(int repeats, F f) {
+  std::vector<double> t;
+  for (int i = 0; i < repeats; ++i) {
+    const auto a = Clock::now();
+    f();
+    t.push_back(std::chrono::duration<double, std::milli>(Clock::now() - a).count());
+  }
+  std::sort(t.begin(), t.end());
+  return t[t.size() / 2];
+}
+
+fulcrum::SceneBody dynamic(const Vec2& at, fulcrum::Geometry geometry) {
+  fulcrum::SceneBody body;
+  body.def.type = fulcrum::BodyType::kDynamic;
+  body.def.position = at;
+  body.def.enable_sleep = false;  // every body moves every tick: the worst case to restore
+  fulcrum::ShapeDef shape;
+  shape.geometry = geometry;
+  body.shapes.push_back(shape);
+  return body;
+}
+
+// 1000 circles of radius 0.25 m on a 40 x 25 grid 1 m apart in zero gravity, each with its own
+// velocity (up to 2 m/s): load_bench's drifting_1000, where some bodies touch.
+SceneDef drifting() {
+  SceneDef scene;
+  scene.settings.gravity = Vec2::Zero();
+  for (int i = 0; i < 1000; ++i) {
+    fulcrum::SceneBody b = dynamic(Vec2(i % 40, i / 40), fulcrum::Circle{Vec2::Zero(), 0.25});
+    b.def.linear_velocity = Vec2(2.0 * std::sin(i * 1.7), 2.0 * std::cos(i * 2.3));
+    b.def.angular_velocity = std::sin(i * 0.9);
+    scene.bodies.push_back(std::move(b));
+  }
+  return scene;
+}
+
+// 1000 boxes of 0.8 m dropped from a 25 x 40 grid into a bin 26 m wide, measured once they are
+// a settling pile (2 s): every body in contact, a game's worst case.
+SceneDef pile() {
+  SceneDef scene;
+  fulcrum::scenes::add_ground(&scene, 14.0);
+  for (double x : {-13.5, 13.5}) {
+    fulcrum::SceneBody wall;
+    wall.def.position = Vec2(x, 25.0);
+    fulcrum::ShapeDef shape;
+    shape.geometry = fulcrum::make_box(0.5, 25.0);
+    wall.shapes.push_back(shape);
+    scene.bodies.push_back(std::move(wall));
+  }
+  for (int i = 0; i < 1000; ++i) {
+    scene.bodies.push_back(
+        dynamic(Vec2(-12.0 + i % 25, 1.0 + i / 25), fulcrum::make_box(0.4, 0.4)));
+  }
+  return scene;
+}
+
+struct Case {
+  const char* name;
+  SceneDef (*scene)();
+  int settle;  // ticks stepped before measuring
+};
+
+// | scene | ... | rollback 1/4/8/16 ticks | deepest in one frame |
+void rollback_table(int repeats) {
+  std::printf(
+      "## Rollback: snapshot of the confirmed world, restore, N ticks stepped again (ms)\n\n"
+      "| scene | bodies | contacts | step (of 16) | snapshot | snapshot + restore | 1 tick | 4 "
+      "ticks | 8 "
+      "ticks | "
+      "16 ticks | deepest in 16.7 ms (measured) |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|\n");
+  const Case cases[] = {{"drifting_1000", drifting, 60}, {"box_pile_1000", pile, 120}};
+  for (const Case& c : cases) {
+    auto built = fulcrum::build_world(c.scene());
+    if (!built.ok()) {
+      std::fprintf(stderr, "%s: %s\n", c.name, built.status().message().c_str());
+      std::exit(1);
+    }
+    World confirmed = std::move(built).value();
+    for (int i = 0; i < c.settle; ++i) confirmed.step();
+    World predicted;
+    auto rollback = [&](int ticks) {
+      if (!predicted.restore(confirmed.snapshot()).ok()) std::exit(1);
+      for (int i = 0; i < ticks; ++i) predicted.step();
+    };
+    const double restore_ms = median_ms(repeats, [&] { rollback(0); });
+    fulcrum::WorldSnapshot kept;
+    const double snapshot_ms = median_ms(repeats, [&] { kept = confirmed.snapshot(); });
+    double ms[4];
+    const int depths[4] = {1, 4, 8, 16};
+    for (int k = 0; k < 4; ++k) ms[k] = median_ms(repeats, [&] { rollback(depths[k]); });
+    // One step, from the 16-tick figure (a single step is too short to time alone).
+    const double per_tick = (ms[3] - restore_ms) / 16.0;
+    int deepest = static_cast<int>(std::floor((kFrameMs - restore_ms) / per_tick));
+    double deepest_ms = median_ms(repeats, [&] { rollback(deepest); });
+    while (deepest > 0 && deepest_ms > kFrameMs) {
+      --deepest;
+      deepest_ms = median_ms(repeats, [&] { rollback(deepest); });
+    }
+    std::printf(
+        "| %s | %d | %d | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %d ticks (%.2f ms) |\n",
+        c.name, confirmed.body_count(), confirmed.metrics().contact_count, per_tick, snapshot_ms,
+        restore_ms, ms[0], ms[1], ms[2], ms[3], deepest, deepest_ms);
+  }
+  std::printf("\n");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int repeats = 15;
+  for (int i = 1; i + 1 < argc; ++i) {
+    if (std::strcmp(argv[i], "--repeats") == 0) repeats = std::max(1, std::atoi(argv[i + 1]));
+  }
+  rollback_table(repeats);
+  return 0;
+}
