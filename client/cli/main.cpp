@@ -113,6 +113,7 @@ constexpr FlagSpec kSessionFlags[] = {
     {"name", "NAME", "bot: the player's name (default bot)"},
     {"seed", "S", "bot: seeds its random impulses (default 1)"},
     {"impulse", "N_S", "bot: the largest impulse per axis, N s (default 1)"},
+    {"report-every", "K", "bot: report its state hashes to the server every K ticks (1-1024)"},
     {"ticks", "N", "bot, watch: stop after N confirmed ticks (default: when the stream ends)"}};
 constexpr FlagSpec kViewFlags[] = {
     kServerFlag,
@@ -221,13 +222,16 @@ constexpr Command kCommands[] = {
      "open WORLD [--players N] [--input-delay D] [--seal on-step|all-inputs]\n"
      "                 [--missing none|repeat]\n"
      "       fulcrum session bot WORLD --bodies I,J [--ticks N] [--seed S] [--impulse N_S]\n"
+     "                 [--report-every K]\n"
      "       fulcrum session watch WORLD [--ticks N]",
      "A bot joins as a player with the bodies named, sends seeded random impulses on them one\n"
      "input per tick, and steps its own copy of the world with every confirmed tick, checking\n"
      "the server's state hash at each (lockstep); `watch` does the same without playing. Both\n"
      "print a line every 60 ticks and exit 1 at the first hash that differs. With --seal\n"
      "on-step the world moves by `fulcrum run` or `fulcrum step`; with all-inputs it steps as\n"
-     "soon as every player's input for its next tick is in.",
+     "soon as every player's input for its next tick is in. With --report-every the bot also\n"
+     "reports its hashes to the server (ReportHash) every K ticks, and at a desync sends its\n"
+     "snapshot of the tick so that the server names the first field that differs.",
      kSessionFlags, 2, run_session},
     {"view", "draw a world live in the browser, or play a replay file with a timeline",
      "[--listen HOST:PORT] [--world ID]\n"

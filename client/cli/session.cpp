@@ -4,6 +4,7 @@
 #include <condition_variable>
 #include <cstdio>
 #include <mutex>
+#include <optional>
 #include <ostream>
 
 #include "fulcrum/fingerprint.h"
@@ -23,17 +24,45 @@ struct Follow {
   int64_t start_tick = -1;
   int64_t confirmed = 0;
   bool done = false;
+  int64_t reports = 0;  // hash reports the server answered
+  int64_t reports_matched = 0;
 };
+
+// Sends the copy's due hash report as the player; a desync the server found is printed with
+// the first field that differs and becomes the follow's error.
+void send_report(const Invocation& inv, client::Client* c, uint64_t world,
+                 const v1::JoinSessionReply& player, Follow* f,
+                 std::unique_lock<std::mutex>& lock) {
+  std::optional<v1::ReportHashRequest> due = f->lockstep.take_report();
+  if (!due) return;
+  lock.unlock();
+  Result<v1::ReportHashReply> reply = c->report_hash(world, player, *std::move(due));
+  lock.lock();
+  if (!reply.ok()) {
+    inv.err << "hash report: " << reply.status().message() << "\n";
+    return;
+  }
+  ++f->reports;
+  (void)f->lockstep.on_report_reply(*reply);
+  if (reply->verdict() == v1::HASH_VERDICT_MATCH) ++f->reports_matched;
+  if (reply->verdict() != v1::HASH_VERDICT_DESYNC) return;
+  inv.out << "the server finds a desync at tick " << reply->divergent_tick() << ": "
+          << (reply->first_difference().empty() ? reply->note() : reply->first_difference())
+          << "\n";
+  inv.out.flush();
+}
 
 int follow(const Invocation& inv, client::Client* c, uint64_t world, int64_t ticks,
            const std::function<void(int64_t tick, Follow*)>& on_tick, Follow* f,
-           int64_t print_every, const v1::JoinSessionReply* as_player = nullptr) {
+           int64_t print_every, const v1::JoinSessionReply* as_player = nullptr,
+           bool report = false) {
   auto sub = c->watch_session(
       world,
       [&](const v1::SessionEvent& event) {
         std::unique_lock<std::mutex> lock(f->mu);
         if (f->done) return;
         Status st = f->lockstep.on_event(event);
+        if (report) send_report(inv, c, world, *as_player, f, lock);
         if (!st.ok()) {
           f->error = st;
           f->done = true;
@@ -147,6 +176,12 @@ int bot(const Invocation& inv, client::Client* c, uint64_t world, int64_t ticks)
       return inv.usage_error("--impulse: expected a number from 0 to 1e6, got '" + *s + "'");
     }
   }
+  client::LockstepOptions lockstep;
+  if (auto k = inv.args.value("report-every")) {
+    auto n = parse_int(*k, 1, 1024, &error);
+    if (!n) return inv.usage_error("--report-every: " + error);
+    lockstep.report_every = static_cast<int>(*n);
+  }
   Result<v1::JoinSessionReply> me = c->join_session(join);
   if (!me.ok()) return inv.fail(me.status().message());
   inv.out << "player " << me->player_id() << " joined world " << world << " at tick " << me->tick()
@@ -182,13 +217,19 @@ int bot(const Invocation& inv, client::Client* c, uint64_t world, int64_t ticks)
     }
   };
   Follow f;
+  f.lockstep = client::LockstepWorld(lockstep);
   int rc = follow(
       inv, c, world, ticks, [&](int64_t tick, Follow*) { send_through(tick + delay); }, &f, 60,
-      &*me);
+      &*me, lockstep.report_every > 0);
   if (rc != kExitOk) return rc;
   inv.out << "player " << me->player_id() << ": " << f.confirmed
           << " ticks confirmed, every state hash matched this copy; " << sent << " inputs sent, "
-          << late << " late\n";
+          << late << " late";
+  if (lockstep.report_every > 0) {
+    inv.out << "; " << f.reports << " hash reports, " << f.reports_matched
+            << " matched the server's";
+  }
+  inv.out << "\n";
   return kExitOk;
 }
 

@@ -38,6 +38,9 @@ int run_stats(const Invocation& inv) {
   count("readers_too_slow", s.readers_too_slow());
   count("recordings_started", s.recordings_started());
   count("recordings_failed", s.recordings_failed());
+  count("hash_reports", s.hash_reports());
+  count("desyncs", s.desyncs());
+  count("resyncs", s.resyncs());
   for (const v1::CodeCount& c : s.refused()) {
     const std::string name = "refused." + c.code();
     count(name.c_str(), c.count());

@@ -648,6 +648,17 @@ class GrpcClient final : public Client {
     return reply;
   }
 
+  Result<v1::ReportHashReply> report_hash(uint64_t world, const v1::JoinSessionReply& player,
+                                          v1::ReportHashRequest request) override {
+    request.set_world_id(world);
+    request.set_player_id(player.player_id());
+    request.set_player_secret(player.player_secret());
+    v1::ReportHashReply reply;
+    Status st = unary(&v1::Physics::Stub::ReportHash, request, &reply);
+    if (!st.ok()) return st;
+    return reply;
+  }
+
   Result<std::unique_ptr<Subscription>> watch_session(
       uint64_t world, std::function<void(const v1::SessionEvent&)> on_event,
       const v1::JoinSessionReply* as_player) override {

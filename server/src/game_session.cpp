@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <optional>
 #include <random>
 #include <utility>
 
@@ -72,8 +74,10 @@ Status check_vec(const std::string& field, const v1::Vec2& v) {
 
 }  // namespace
 
-GameSession::GameSession(const v1::SessionOptions& options, int64_t open_tick)
-    : options_(options), open_tick_(open_tick), sealed_through_(open_tick - 1) {}
+GameSession::GameSession(const v1::SessionOptions& options, const World& world)
+    : options_(options), open_tick_(world.tick()), sealed_through_(world.tick() - 1) {
+  history_.start(world);
+}
 
 Status GameSession::check_options(v1::SessionOptions* o) {
   if (o->max_players() == 0) o->set_max_players(kDefaultPlayers);
@@ -399,10 +403,12 @@ std::shared_ptr<const v1::SessionEvent> GameSession::confirm(const Sealed& appli
     }
   }
   joined_.clear();
+  history_.add(world, event);
   return event;
 }
 
-std::shared_ptr<const v1::SessionEvent> GameSession::start_event(const World& world) const {
+std::shared_ptr<const v1::SessionEvent> GameSession::start_event(const World& world,
+                                                                 bool resync) const {
   auto event = std::make_shared<v1::SessionEvent>();
   v1::SessionStart* s = event->mutable_start();
   s->set_tick(world.tick());
@@ -412,7 +418,38 @@ std::shared_ptr<const v1::SessionEvent> GameSession::start_event(const World& wo
   for (const auto& [id, p] : players_) player_to_proto(p, s->add_players());
   s->set_fingerprint(kDeterminismFingerprint);
   s->set_applied_batches(static_cast<uint32_t>(pending_.size()));
+  s->set_resync(resync);
   return event;
+}
+
+Status GameSession::compare_hashes(const v1::ReportHashRequest& request, const World& world,
+                                   v1::ReportHashReply* reply) const {
+  FULCRUM_RETURN_IF_ERROR(check_player(request.player_id(), request.player_secret()));
+  const int64_t last = request.first_tick() + request.hashes_size() - 1;
+  if (last > world.tick()) {
+    return invalid_argument("first_tick: the hashes run to tick " + std::to_string(last) +
+                            ", past the last confirmed tick " + std::to_string(world.tick()));
+  }
+  const int64_t from = std::max(request.first_tick(), history_.oldest_hash_tick());
+  const int64_t through = std::min(last, history_.newest_hash_tick());
+  if (from > through) {
+    reply->set_verdict(v1::HASH_VERDICT_UNCHECKED);
+    return {};
+  }
+  reply->set_checked_from(from);
+  reply->set_checked_through(through);
+  reply->set_verdict(v1::HASH_VERDICT_MATCH);
+  for (int64_t tick = from; tick <= through; ++tick) {
+    const uint64_t reported = request.hashes(static_cast<int>(tick - request.first_tick()));
+    const uint64_t confirmed = *history_.hash_after(tick);
+    if (reported == confirmed) continue;
+    reply->set_verdict(v1::HASH_VERDICT_DESYNC);
+    reply->set_divergent_tick(tick);
+    reply->set_server_hash(confirmed);
+    reply->set_client_hash(reported);
+    break;
+  }
+  return {};
 }
 
 }  // namespace fulcrum::server
@@ -428,7 +465,7 @@ Status Session::open_session(const v1::OpenSessionRequest& request, v1::OpenSess
   if (game_) {
     return failed_precondition("world " + std::to_string(id_) + " is a session already");
   }
-  game_ = std::make_unique<GameSession>(options, world_.tick());
+  game_ = std::make_unique<GameSession>(options, world_);
   reply->set_tick(world_.tick());
   *reply->mutable_options() = options;
   reply->set_fingerprint(kDeterminismFingerprint);
@@ -518,6 +555,108 @@ void Session::unwatch_session(const SessionWatcher* watcher, uint32_t player_id)
   game_->presence(player_id, -1);
   log_event("player_watch_ended", {{"world", id_}, {"player", player_id}});
   step_complete_ticks_locked();  // a turn may have waited only for this player
+}
+
+Status Session::report_hash(const v1::ReportHashRequest& request, v1::ReportHashReply* reply) {
+  // The request's own shape first, and the snapshot checked whole, before the world is held.
+  if (request.hashes_size() == 0) {
+    return invalid_argument("hashes: at least one (the state hash after first_tick)");
+  }
+  if (request.hashes_size() > ConfirmedHistory::kHashWindow) {
+    return invalid_argument("hashes: at most " + std::to_string(ConfirmedHistory::kHashWindow) +
+                            " per report (got " + std::to_string(request.hashes_size()) + ")");
+  }
+  if (request.first_tick() < 1) {
+    return invalid_argument("first_tick: the world's tick after a step, at least 1 (got " +
+                            std::to_string(request.first_tick()) + ")");
+  }
+  const int64_t last = request.first_tick() + request.hashes_size() - 1;
+  std::optional<v1::Snapshot> theirs;
+  if (request.has_snapshot()) {
+    Result<WorldSnapshot> records = decode_snapshot(request.snapshot(), limits_);
+    if (!records.ok()) return records.status();  // its message names the place in the snapshot
+    World check;  // the engine's own check of every value and link (NaN included)
+    if (Status restored = check.restore(*records); !restored.ok()) {
+      return invalid_argument(restored.message());
+    }
+    if (records->tick < request.first_tick() || records->tick > last) {
+      return invalid_argument("snapshot: of tick " + std::to_string(records->tick) +
+                              ", not one of the reported ticks " +
+                              std::to_string(request.first_tick()) + " to " + std::to_string(last));
+    }
+    theirs = snapshot_to_proto(*records);
+  }
+
+  std::optional<ConfirmedHistory::Replay> replay;
+  {
+    Hold hold(this);
+    if (!game_) return not_a_session(id_);
+    FULCRUM_RETURN_IF_ERROR(game_->compare_hashes(request, world_, reply));
+    ++counters().hash_reports;
+    if (reply->verdict() != v1::HASH_VERDICT_DESYNC) return {};
+    ++counters().desyncs;
+    if (theirs && theirs->tick() == reply->divergent_tick()) {
+      replay = game_->history().replay_to(reply->divergent_tick());
+    }
+    if (request.resync()) resync_player_locked(request.player_id(), reply);
+  }
+
+  // The field that differs: the server's world at the divergent tick is rebuilt from its
+  // keyframe without the world held, then compared as `fulcrum replay verify` compares.
+  const std::string tick = std::to_string(reply->divergent_tick());
+  if (!theirs) {
+    reply->set_note("no snapshot sent: send this player's snapshot of tick " + tick +
+                    " to learn the first field that differs");
+  } else if (theirs->tick() != reply->divergent_tick()) {
+    reply->set_note("the snapshot is of tick " + std::to_string(theirs->tick()) +
+                    ", not of the first tick that differs (" + tick + ")");
+  } else if (!replay) {
+    reply->set_note("tick " + tick + " is before the server's oldest keyframe");
+  } else if (Result<WorldSnapshot> ours = rebuild(*replay); !ours.ok()) {
+    reply->set_note("the server could not rebuild tick " + tick + ": " + ours.status().message());
+  } else {
+    const v1::Snapshot expected = snapshot_to_proto(*ours);
+    reply->set_first_difference(first_difference(expected, *theirs));
+    // "bodies[12].position.x: ..." names body slot 12; its handle takes the server's generation.
+    const std::string& d = reply->first_difference();
+    if (d.rfind("bodies[", 0) == 0) {
+      const int slot = std::atoi(d.c_str() + 7);
+      if (slot >= 0 && slot < expected.bodies_size()) {
+        reply->mutable_body()->set_index(slot);
+        reply->mutable_body()->set_generation(expected.bodies(slot).generation());
+      }
+    }
+  }
+  log_event("desync",
+            {{"world", id_},
+             {"player", request.player_id()},
+             {"tick", reply->divergent_tick()},
+             {"server_hash", World::hash_text(reply->server_hash())},
+             {"client_hash", World::hash_text(reply->client_hash())},
+             {"difference",
+              reply->first_difference().empty() ? reply->note() : reply->first_difference()},
+             {"resync_tick",
+              reply->resynced() ? std::to_string(reply->resync_tick()) : std::string("none")}});
+  return {};
+}
+
+void Session::resync_player_locked(uint32_t player_id, v1::ReportHashReply* reply) {
+  std::vector<std::shared_ptr<SessionWatcher>> due;
+  {
+    std::lock_guard<std::mutex> wl(session_watchers_mu_);
+    for (const auto& w : session_watchers_) {
+      auto watcher = w.lock();
+      if (watcher && watcher->player_id() == player_id) due.push_back(std::move(watcher));
+    }
+  }
+  if (due.empty()) return;  // nothing to send it on: a new watch starts from the world anyway
+  // Offered with the world held, so it sits between the same confirmed ticks on every stream.
+  std::shared_ptr<const v1::SessionEvent> start = game_->start_event(world_, true);
+  for (auto& watcher : due) watcher->offer(start);
+  reply->set_resynced(true);
+  reply->set_resync_tick(world_.tick());
+  reply->set_resync_watches(static_cast<int32_t>(due.size()));
+  ++counters().resyncs;
 }
 
 GameSession::Sealed Session::seal_inputs_locked() {

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "confirmed_history.h"
 #include "fulcrum/status.h"
 #include "fulcrum/v1/session.pb.h"
 #include "fulcrum/world.h"
@@ -25,12 +26,14 @@ class SessionWatcher {
   virtual ~SessionWatcher() = default;
   virtual void offer(std::shared_ptr<const v1::SessionEvent> event) = 0;
   virtual void close(const Status& status) = 0;
+  // The player this stream watches as (0: a spectator); fixed while the stream is registered.
+  virtual uint32_t player_id() const = 0;
 };
 
 class GameSession {
  public:
-  // `options` checked by check_options(); the world's tick when it was opened.
-  GameSession(const v1::SessionOptions& options, int64_t open_tick);
+  // `options` checked by check_options(); the world when it was opened.
+  GameSession(const v1::SessionOptions& options, const World& world);
 
   // INVALID_ARGUMENT naming the field when an option is out of range; fills in the defaults.
   static Status check_options(v1::SessionOptions* options);
@@ -71,8 +74,18 @@ class GameSession {
   // `applied` by the caller, and their players put in `missing`).
   std::shared_ptr<const v1::SessionEvent> confirm(const Sealed& applied, const World& world);
 
-  // The first event of a watch: the world now, the options and the players.
-  std::shared_ptr<const v1::SessionEvent> start_event(const World& world) const;
+  // The first event of a watch: the world now, the options and the players. `resync`: sent
+  // again mid-watch to a desynchronised player (ReportHash).
+  std::shared_ptr<const v1::SessionEvent> start_event(const World& world,
+                                                      bool resync = false) const;
+
+  // A desync report (ReportHash) with the world held: checks the player's secret and the ticks
+  // (INVALID_ARGUMENT naming first_tick for ticks not confirmed yet), then compares the hashes
+  // still in the history and fills reply's verdict, checked range and, on a desync, the first
+  // tick that differs with both hashes.
+  Status compare_hashes(const v1::ReportHashRequest& request, const World& world,
+                        v1::ReportHashReply* reply) const;
+  const ConfirmedHistory& history() const { return history_; }
 
   int players() const { return static_cast<int>(players_.size()); }
 
@@ -105,6 +118,7 @@ class GameSession {
   std::map<int64_t, std::map<uint32_t, v1::EditBatch>> inputs_;  // by tick, then player
   std::vector<Batch> pending_;
   std::vector<uint32_t> joined_;  // players joined since the last confirmed tick
+  ConfirmedHistory history_;      // confirmed hashes and keyframes, for desync reports
 };
 
 }  // namespace fulcrum::server

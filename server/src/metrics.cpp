@@ -122,6 +122,13 @@ std::string render_metrics(Registry& registry) {
   t.single("fulcrum_recordings_failed_total", "counter",
            "Recordings that could not start or stopped on a failed write.",
            stats.recordings_failed());
+  t.single("fulcrum_session_hash_reports_total", "counter",
+           "Multiplayer state-hash reports answered (ReportHash).", stats.hash_reports());
+  t.single("fulcrum_session_desyncs_total", "counter",
+           "Hash reports that found a player's state hash differing from the server's.",
+           stats.desyncs());
+  t.single("fulcrum_session_resyncs_total", "counter",
+           "Fresh session starts sent to resynchronise a desynchronised player.", stats.resyncs());
   t.family("fulcrum_refused_total", "counter", "Requests refused, by gRPC status code.");
   for (int code = 1; code < 17; ++code) {
     t.sample("fulcrum_refused_total", "code=\"" + std::string(status_code_name(code)) + "\"",

@@ -772,6 +772,12 @@ grpc::Status PhysicsService::SendInput(grpc::ServerContext* context,
   return on_world(context, *request, reply, &Session::send_input);
 }
 
+grpc::Status PhysicsService::ReportHash(grpc::ServerContext* context,
+                                        const v1::ReportHashRequest* request,
+                                        v1::ReportHashReply* reply) {
+  return on_world(context, *request, reply, &Session::report_hash);
+}
+
 namespace {
 
 // One WatchSession call: every event in order, none skipped. Events queue while a write is in
@@ -816,6 +822,7 @@ class SessionStream final : public grpc::ServerWriteReactor<v1::SessionEvent>,
   }
 
   void close(const Status& status) override { end(to_grpc_status(status)); }
+  uint32_t player_id() const override { return player_id_; }
 
   void OnWriteDone(bool ok) override {
     std::unique_lock<std::mutex> lock(mu_);

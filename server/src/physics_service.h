@@ -88,6 +88,8 @@ class PhysicsService final
                            v1::JoinSessionReply* reply) override;
   grpc::Status SendInput(grpc::ServerContext* context, const v1::SendInputRequest* request,
                          v1::SendInputReply* reply) override;
+  grpc::Status ReportHash(grpc::ServerContext* context, const v1::ReportHashRequest* request,
+                          v1::ReportHashReply* reply) override;
   grpc::ServerWriteReactor<v1::SessionEvent>* WatchSession(
       grpc::CallbackServerContext* context, const v1::WatchSessionRequest* request) override;
 

@@ -140,6 +140,10 @@ class Session : public std::enable_shared_from_this<Session> {
   Status watch_session(std::shared_ptr<SessionWatcher> watcher, uint32_t player_id,
                        const std::string& secret);
   void unwatch_session(const SessionWatcher* watcher, uint32_t player_id);
+  // A player's state hashes for recent confirmed ticks (ReportHash): the verdict, and on a
+  // desync the first tick that differs, the first field (given the player's snapshot of that
+  // tick) and, when asked, a fresh start on the player's watches. Counted and logged.
+  Status report_hash(const v1::ReportHashRequest& request, v1::ReportHashReply* reply);
 
   // --- Replays on the server (recorder.cpp) ---
   Status start_recording(ReplayStore* store, std::optional<uint32_t> keyframe_interval,
@@ -197,6 +201,8 @@ class Session : public std::enable_shared_from_this<Session> {
   GameSession::Sealed seal_inputs_locked();
   // SEAL_RULE_ALL_INPUTS on a paused world: steps every tick whose inputs are all in.
   void step_complete_ticks_locked();
+  // Offers a fresh start (resync) to every watch open as the player; fills reply's resync.
+  void resync_player_locked(uint32_t player_id, v1::ReportHashReply* reply);
 
   const uint64_t id_;
   const std::string name_;

@@ -82,6 +82,9 @@ void Counters::to_proto(uint32_t worlds_alive, v1::ServerStats* out) const {
   out->set_readers_too_slow(readers_too_slow);
   out->set_recordings_started(recordings_started);
   out->set_recordings_failed(recordings_failed);
+  out->set_hash_reports(hash_reports);
+  out->set_desyncs(desyncs);
+  out->set_resyncs(resyncs);
   for (int code = 1; code < 17; ++code) {
     const uint64_t n = refused[code];
     if (n == 0) continue;

@@ -35,6 +35,9 @@ struct Counters {
   std::atomic<uint64_t> readers_too_slow{0};
   std::atomic<uint64_t> recordings_started{0};
   std::atomic<uint64_t> recordings_failed{0};
+  std::atomic<uint64_t> hash_reports{0};   // ReportHash calls answered
+  std::atomic<uint64_t> desyncs{0};        // of them, those that found a hash that differs
+  std::atomic<uint64_t> resyncs{0};        // fresh starts sent to a desynchronised player
   std::atomic<uint64_t> refused[17] = {};  // by grpc::StatusCode (0..16)
   // Ticks by their wall time (a Step call's or a real-time wake's average per tick), in the
   // buckets of kStepBucketSeconds and one past the last (the Prometheus histogram of metrics.h).

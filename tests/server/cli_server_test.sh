@@ -142,13 +142,14 @@ out="$("$F" session open 3 --players 2 --seal all-inputs --input-delay 2 --serve
 SW=$!
 "$F" session bot 3 --bodies 210 --ticks 60 --server "$ADDR" >"$WORK/b1.out" 2>"$WORK/b1.err" &
 B1=$!
-"$F" session bot 3 --bodies 209 --ticks 90 --seed 2 --server "$ADDR" >"$WORK/b2.out" 2>&1 ||
+"$F" session bot 3 --bodies 209 --ticks 90 --seed 2 --report-every 30 --server "$ADDR" \
+  >"$WORK/b2.out" 2>&1 ||
   fail "bot 2: $(cat "$WORK/b2.out")"
 wait "$B1" || fail "bot 1: $(cat "$WORK/b1.out" "$WORK/b1.err")"
 wait "$SW" || fail "session watch: $(cat "$WORK/sw.out" "$WORK/sw.err")"
 grep -q "every state hash matched" "$WORK/b1.out" || fail "bot 1: $(cat "$WORK/b1.out")"
-grep -q "^player [12]: 90 ticks confirmed, every state hash matched" "$WORK/b2.out" ||
-  fail "bot 2: $(cat "$WORK/b2.out")"
+grep -q "^player [12]: 90 ticks confirmed, every state hash matched.*; 3 hash reports, 3 matched" \
+  "$WORK/b2.out" || fail "bot 2: $(cat "$WORK/b2.out")"
 grep -q "^world 3: 60 ticks confirmed from tick [0-9]*, every state hash matched" "$WORK/sw.out" ||
   fail "session watch: $(cat "$WORK/sw.out")"
 if "$F" session bot 3 --bodies 210 --server "$ADDR" 2>"$WORK/err.txt"; then

@@ -288,6 +288,11 @@ class Client {
   virtual Result<v1::JoinSessionReply> join_session(const v1::JoinSessionRequest& request) = 0;
   virtual Result<v1::SendInputReply> send_input(uint64_t world, const v1::JoinSessionReply& player,
                                                 int64_t tick, const v1::EditBatch& input) = 0;
+  // A desync report (LockstepWorld::take_report): world_id, player_id and player_secret are
+  // filled in from `world` and `player`.
+  virtual Result<v1::ReportHashReply> report_hash(uint64_t world,
+                                                  const v1::JoinSessionReply& player,
+                                                  v1::ReportHashRequest request) = 0;
   // The world at the start, then every confirmed tick, on the subscription's thread. With
   // `as_player` (a join's reply) the player counts as present while the watch is open.
   virtual Result<std::unique_ptr<Subscription>> watch_session(
