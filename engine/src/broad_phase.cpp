@@ -14,7 +14,8 @@ void WorldImpl::create_proxy(int si) {
   Shape& s = shapes[si];
   const Body& b = bodies[s.body];
   AABB fat = compute_aabb(s.geometry, b.xf).fattened(settings.aabb_margin);
-  s.proxy = tree.create_proxy(fat, static_cast<uint64_t>(si));
+  s.proxy =
+      tree.create_proxy(fat, static_cast<uint64_t>(si), s.filter.category_bits, s.filter.mask_bits);
   if (!s.in_move_buffer) {
     s.in_move_buffer = true;
     move_buffer.push_back(si);
@@ -145,15 +146,21 @@ int64_t WorldImpl::update_pairs() {
   std::vector<std::pair<int, int>>& pairs = scratch_pairs;
   pairs.clear();
   auto query_shape = [&](int si, std::vector<std::pair<int, int>>* out) {
-    const AABB& box = tree.fat_aabb(shapes[si].proxy);
-    tree.query(box, [&](int proxy) {
-      int other = static_cast<int>(tree.user_data(proxy));
-      if (other == si) return true;
-      if (shapes[other].in_move_buffer && other < si) return true;  // found from its side
-      if (!should_collide(si, other) || has_contact(si, other)) return true;
-      out->emplace_back(std::min(si, other), std::max(si, other));
-      return found.fetch_add(1, std::memory_order_relaxed) < room;
-    });
+    const Shape& s = shapes[si];
+    const AABB& box = tree.fat_aabb(s.proxy);
+    // Outside a positive group (whose members meet whatever their bits), only shapes whose
+    // bits pass both ways can collide with this one: the tree skips subtrees of others.
+    const bool grouped = s.filter.group_index > 0;
+    tree.query_filtered(box, grouped ? ~0ull : s.filter.category_bits,
+                        grouped ? ~0ull : s.filter.mask_bits, [&](int proxy) {
+                          int other = static_cast<int>(tree.user_data(proxy));
+                          if (other == si) return true;
+                          // A pair of two moved shapes is found from the lower index's side.
+                          if (shapes[other].in_move_buffer && other < si) return true;
+                          if (!should_collide(si, other) || has_contact(si, other)) return true;
+                          out->emplace_back(std::min(si, other), std::max(si, other));
+                          return found.fetch_add(1, std::memory_order_relaxed) < room;
+                        });
   };
   constexpr size_t kShapesPerChunk = 64;
   const size_t moved = move_buffer.size();

@@ -49,11 +49,14 @@ void DynamicTree::free_node(int index) {
   --node_count_;
 }
 
-int DynamicTree::create_proxy(const AABB& fat_aabb, uint64_t user_data) {
+int DynamicTree::create_proxy(const AABB& fat_aabb, uint64_t user_data, uint64_t category_bits,
+                              uint64_t mask_bits) {
   assert(fat_aabb.lower.x() <= fat_aabb.upper.x() && fat_aabb.lower.y() <= fat_aabb.upper.y());
   const int proxy = allocate_node();
   nodes_[proxy].aabb = fat_aabb;
   nodes_[proxy].user_data = user_data;
+  nodes_[proxy].category_bits = category_bits;
+  nodes_[proxy].mask_bits = mask_bits;
   insert_leaf(proxy);
   ++proxy_count_;
   return proxy;
@@ -76,6 +79,19 @@ void DynamicTree::move_proxy(int proxy_id, const AABB& fat_aabb) {
   remove_leaf(proxy_id);
   nodes_[proxy_id].aabb = fat_aabb;
   insert_leaf(proxy_id);
+}
+
+void DynamicTree::set_leaf_filter(int proxy_id, uint64_t category_bits, uint64_t mask_bits) {
+  assert(0 <= proxy_id && proxy_id < static_cast<int>(nodes_.size()));
+  assert(nodes_[proxy_id].height == 0);
+  nodes_[proxy_id].category_bits = category_bits;
+  nodes_[proxy_id].mask_bits = mask_bits;
+  for (int index = nodes_[proxy_id].parent_or_next; index != kNullNode;
+       index = nodes_[index].parent_or_next) {
+    Node& node = nodes_[index];
+    node.category_bits = nodes_[node.child1].category_bits | nodes_[node.child2].category_bits;
+    node.mask_bits = nodes_[node.child1].mask_bits | nodes_[node.child2].mask_bits;
+  }
 }
 
 void DynamicTree::rebuild() {
@@ -237,6 +253,8 @@ void DynamicTree::refit(int index) {
   const Node& c2 = nodes_[node.child2];
   node.aabb = union_of(c1.aabb, c2.aabb);
   node.height = 1 + std::max(c1.height, c2.height);
+  node.category_bits = c1.category_bits | c2.category_bits;
+  node.mask_bits = c1.mask_bits | c2.mask_bits;
 }
 
 void DynamicTree::balance_upward(int index) {
@@ -408,6 +426,8 @@ bool DynamicTree::validate() const {
     if (node.height != 1 + std::max(n1.height, n2.height)) return false;
     if (std::abs(n1.height - n2.height) > kMaxImbalance) return false;
     if (!node.aabb.contains(n1.aabb) || !node.aabb.contains(n2.aabb)) return false;
+    if (node.category_bits != (n1.category_bits | n2.category_bits)) return false;
+    if (node.mask_bits != (n1.mask_bits | n2.mask_bits)) return false;
     stack.push_back(c1);
     stack.push_back(c2);
   }

@@ -19,9 +19,10 @@ class DynamicTree {
  public:
   DynamicTree();
 
-  // Inserts a leaf with this (already fattened) box; returns its proxy id. Ids of destroyed
-  // proxies are reused, most recently freed first.
-  int create_proxy(const AABB& fat_aabb, uint64_t user_data);
+  // Inserts a leaf with this (already fattened) box and collision filter bits; returns its
+  // proxy id. Ids of destroyed proxies are reused, most recently freed first.
+  int create_proxy(const AABB& fat_aabb, uint64_t user_data, uint64_t category_bits = ~0ull,
+                   uint64_t mask_bits = ~0ull);
   void destroy_proxy(int proxy_id);
   // Replaces a leaf's box (re-inserting the leaf).
   void move_proxy(int proxy_id, const AABB& fat_aabb);
@@ -32,6 +33,9 @@ class DynamicTree {
   void set_leaf_box(int proxy_id, const AABB& fat_aabb) { nodes_[proxy_id].aabb = fat_aabb; }
   void rebuild();
 
+  // Replaces a leaf's filter bits (and its ancestors' unions of them).
+  void set_leaf_filter(int proxy_id, uint64_t category_bits, uint64_t mask_bits);
+
   const AABB& fat_aabb(int proxy_id) const { return nodes_[proxy_id].aabb; }
   uint64_t user_data(int proxy_id) const { return nodes_[proxy_id].user_data; }
 
@@ -39,6 +43,13 @@ class DynamicTree {
   // false to stop the query.
   template <typename Callback>
   void query(const AABB& aabb, Callback&& callback) const;
+  // The same, but only leaves whose filter bits could pass against a querying shape with
+  // these bits: category & the shape's mask and the shape's category & mask both nonzero.
+  // Whole subtrees that hold no such leaf are skipped (every node keeps the union of its
+  // leaves' bits), so a crowd of shapes that never collide with each other costs no walk.
+  template <typename Callback>
+  void query_filtered(const AABB& aabb, uint64_t category_bits, uint64_t mask_bits,
+                      Callback&& callback) const;
 
   // Calls callback(input, proxy_id) for every leaf whose box the ray crosses, nearest-first is
   // not guaranteed. The callback returns the new max fraction: 0 ends the cast, a value in
@@ -61,8 +72,14 @@ class DynamicTree {
     int child1 = kNullNode;
     int child2 = kNullNode;
     int height = -1;  // leaf = 0, free = -1
+    // A leaf's filter bits; an internal node's, the union of its leaves'.
+    uint64_t category_bits = 0, mask_bits = 0;
     bool is_leaf() const { return child1 == kNullNode; }
   };
+
+  template <bool kFiltered, typename Callback>
+  void walk(const AABB& aabb, uint64_t category_bits, uint64_t mask_bits,
+            Callback&& callback) const;
 
   // A traversal stack local to one query or ray cast (defined in dynamic_tree_inl.h): a fixed
   // array with a heap fallback, so traversals are const, re-entrant and allocation-free.

@@ -43,12 +43,29 @@ class DynamicTree::TraversalStack {
 
 template <typename Callback>
 void DynamicTree::query(const AABB& aabb, Callback&& callback) const {
+  walk<false>(aabb, 0, 0, callback);
+}
+
+template <typename Callback>
+void DynamicTree::query_filtered(const AABB& aabb, uint64_t category_bits, uint64_t mask_bits,
+                                 Callback&& callback) const {
+  walk<true>(aabb, category_bits, mask_bits, callback);
+}
+
+template <bool kFiltered, typename Callback>
+void DynamicTree::walk(const AABB& aabb, uint64_t category_bits, uint64_t mask_bits,
+                       Callback&& callback) const {
   if (root_ == kNullNode) return;
   TraversalStack stack;
   stack.push(root_);
   while (!stack.empty()) {
     const int index = stack.pop();
     const Node& node = nodes_[index];
+    if constexpr (kFiltered) {
+      if ((node.category_bits & mask_bits) == 0 || (category_bits & node.mask_bits) == 0) {
+        continue;
+      }
+    }
     if (!node.aabb.overlaps(aabb)) continue;
     if (node.is_leaf()) {
       if (!static_cast<bool>(callback(index))) return;

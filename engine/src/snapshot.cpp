@@ -398,7 +398,9 @@ Status World::restore(const WorldSnapshot& s) {
   // boxes do, so inserting in id order is enough.
   for (size_t si = 0; si < w.shapes.size(); ++si) {
     Shape& sh = w.shapes[si];
-    sh.proxy = sh.alive ? w.tree.create_proxy(s.shape_boxes[si], si) : kNullIndex;
+    sh.proxy = sh.alive ? w.tree.create_proxy(s.shape_boxes[si], si, sh.filter.category_bits,
+                                              sh.filter.mask_bits)
+                        : kNullIndex;
   }
   std::unique_ptr<WorldImpl> previous = std::move(impl_);
   impl_ = std::move(fresh);

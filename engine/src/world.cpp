@@ -501,6 +501,9 @@ Status World::set_shape_filter(ShapeId id, const Filter& filter) {
   int si = w.shape_index(id);
   if (si == kNullIndex) return stale_shape(id);
   w.shapes[si].filter = filter;
+  if (w.shapes[si].proxy != kNullIndex) {
+    w.tree.set_leaf_filter(w.shapes[si].proxy, filter.category_bits, filter.mask_bits);
+  }
   int bi = w.shapes[si].body;
   // Drop contacts the new filter forbids; re-test the shape for new pairs.
   for (int e = w.bodies[bi].contact_list; e != kNullIndex;) {

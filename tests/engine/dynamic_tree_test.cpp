@@ -289,6 +289,70 @@ TEST(DynamicTree, RebuildAfterBulkMovesMatchesBruteForce) {
   EXPECT_EQ(single.user_data(id), 42u);
 }
 
+// query_filtered reports exactly the leaves query reports whose bits pass against the query's
+// (both ways), through inserts with bits, filter changes, moves, destroys and a rebuild; every
+// node keeps the union of its leaves' bits (validate checks it).
+TEST(DynamicTree, FilteredQueryIsTheQueryLessTheLeavesWhoseBitsFail) {
+  Rng rng(11);
+  DynamicTree tree;
+  std::map<int, std::pair<uint64_t, uint64_t>> bits;  // proxy -> (category, mask)
+  auto random_bits = [&] {
+    // Few distinct bits, so that both passing and failing pairs are common.
+    const uint64_t category = uint64_t{1} << rng.below(4);
+    const uint64_t mask = rng.unit() < 0.3 ? ~uint64_t{0} : ~category & 0xF;
+    return std::make_pair(category, mask);
+  };
+  auto check = [&] {
+    ASSERT_TRUE(tree.validate());
+    for (int i = 0; i < 100; ++i) {
+      const AABB q = random_box(rng);
+      const auto [category, mask] = random_bits();
+      std::vector<int> want;
+      for (int id : tree_query(tree, q)) {
+        if ((bits[id].first & mask) != 0 && (category & bits[id].second) != 0) want.push_back(id);
+      }
+      std::vector<int> got;
+      tree.query_filtered(q, category, mask, [&](int id) {
+        got.push_back(id);
+        return true;
+      });
+      ASSERT_EQ(sorted(got), sorted(want));
+    }
+  };
+  for (int i = 0; i < 800; ++i) {
+    const auto b = random_bits();
+    const int id = tree.create_proxy(random_box(rng), 0, b.first, b.second);
+    bits[id] = b;
+  }
+  check();
+  for (auto& [id, b] : bits) {
+    if (rng.unit() < 0.3) {
+      b = random_bits();
+      tree.set_leaf_filter(id, b.first, b.second);
+    }
+    if (rng.unit() < 0.3) tree.move_proxy(id, random_box(rng));
+  }
+  check();
+  for (auto it = bits.begin(); it != bits.end();) {
+    if (rng.unit() < 0.4) {
+      tree.destroy_proxy(it->first);
+      it = bits.erase(it);
+    } else {
+      tree.set_leaf_box(it->first, random_box(rng));
+      ++it;
+    }
+  }
+  tree.rebuild();
+  check();
+  // A query whose mask no leaf's category meets visits nothing at all.
+  int visited = 0;
+  tree.query_filtered(AABB{Vec2(-1e3, -1e3), Vec2(1e3, 1e3)}, 1, uint64_t{1} << 40, [&](int) {
+    ++visited;
+    return true;
+  });
+  EXPECT_EQ(visited, 0);
+}
+
 TEST(DynamicTree, ValidateHoldsAfterEveryOperation) {
   Rng rng(3);
   Fixture f;
