@@ -1,0 +1,392 @@
+// fulcrum_session_bench over the network: a fulcrum-server child process on loopback, players
+// on gRPC connections of their own.
+//
+// Latency: turn by turn (SEAL_RULE_ALL_INPUTS, input_delay 0), each player watches the session
+// as itself and, whenever the world reaches tick T, sends its input for T and waits for the
+// ConfirmedTick that carries it (the world at T + 1). Input to confirmation is the time from
+// just before SendInput to that event read off the stream: the player's own call, the wait for
+// the slowest player's input, the seal and step of a 1000-body world, and the fan-out to every
+// watcher. The players only play (a bot's empty fingerprint): no copy of the world is stepped
+// on the client side, whose cost the rollback table gives.
+//
+// Bytes: 4 players on the server's clock at 60 Hz push their own bodies; a spectator watches
+// the session stream while four StreamFrames readers take every tick of the same world (every
+// body or the changed ones, exact or quantized). Sizes are protobuf encodings as received,
+// without gRPC and HTTP/2 framing (about 14 bytes a message).
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <grpcpp/grpcpp.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "fulcrum/client.h"
+#include "fulcrum/v1/service.grpc.pb.h"
+#include "session_bench.h"
+
+extern char** environ;
+
+namespace fulcrum::session_bench {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using namespace std::chrono_literals;
+
+[[noreturn]] void die(const std::string& what) {
+  std::fprintf(stderr, "fulcrum_session_bench: %s\n", what.c_str());
+  std::exit(1);
+}
+
+// fulcrum-server --listen 127.0.0.1:0 --log off as a child; stopped with SIGTERM.
+class ServerChild {
+ public:
+  explicit ServerChild(const std::string& binary) {
+    out_ = (std::filesystem::temp_directory_path() /
+            ("fulcrum_session_bench_" + std::to_string(getpid()) + ".out"))
+               .string();
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, out_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
+    std::vector<std::string> argv = {binary, "--listen", "127.0.0.1:0", "--log", "off"};
+    std::vector<char*> args;
+    for (std::string& a : argv) args.push_back(a.data());
+    args.push_back(nullptr);
+    if (posix_spawn(&pid_, args[0], &actions, nullptr, args.data(), environ) != 0) pid_ = -1;
+    posix_spawn_file_actions_destroy(&actions);
+    if (pid_ < 0) die("cannot start " + binary);
+    for (auto until = Clock::now() + 10s; Clock::now() < until; std::this_thread::sleep_for(10ms)) {
+      std::ifstream in(out_);
+      std::stringstream text;
+      text << in.rdbuf();
+      const std::string s = text.str();
+      const size_t at = s.find("listening on ");
+      if (at != std::string::npos && s.find('\n', at) != std::string::npos) {
+        address_ = s.substr(at + 13, s.find('\n', at) - at - 13);
+        return;
+      }
+    }
+    die(binary + " did not start listening in 10 s");
+  }
+  ~ServerChild() {
+    kill(pid_, SIGTERM);
+    waitpid(pid_, nullptr, 0);
+    std::filesystem::remove(out_);
+  }
+  const std::string& address() const { return address_; }
+
+ private:
+  pid_t pid_ = -1;
+  std::string out_;
+  std::string address_;
+};
+
+// A channel of its own (no TCP connection shared with another player's channel).
+std::unique_ptr<v1::Physics::Stub> own_connection(const std::string& address) {
+  grpc::ChannelArguments args;
+  args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
+  args.SetMaxReceiveMessageSize(-1);
+  return v1::Physics::NewStub(
+      grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args));
+}
+
+// A force on one of the bodies [first, first + count) that changes every tick.
+v1::EditBatch push(int first, int count, int64_t tick) {
+  v1::EditBatch batch;
+  v1::ApplyForce* force = batch.add_edits()->mutable_apply_force();
+  force->mutable_body()->set_index(first + static_cast<int>(tick % count));
+  force->mutable_body()->set_generation(1);
+  force->mutable_force()->set_x(0.5 * static_cast<double>(tick % 7) - 1.5);
+  force->mutable_force()->set_y(0.25 * static_cast<double>(tick % 5) - 0.5);
+  return batch;
+}
+
+// A world of the bytes table: its 1000 movable bodies are scene bodies first_body to
+// first_body + 999.
+struct BenchWorld {
+  const char* name;
+  SceneDef (*scene)();
+  int first_body;
+};
+
+// A session on a new world: its id, and the players' joins (each owning an equal share of the
+// 1000 bodies).
+struct Session {
+  uint64_t world = 0;
+  std::vector<v1::JoinSessionReply> players;
+  int first_body = 0;
+  int owned = 0;  // bodies per player
+};
+
+Session open_session(client::Client* c, const BenchWorld& w, int players,
+                     const v1::SessionOptions& options) {
+  Session s;
+  s.first_body = w.first_body;
+  Result<client::WorldSummary> created = c->create_world(w.scene());
+  if (!created.ok()) die("create: " + created.status().message());
+  s.world = created->id;
+  Result<v1::OpenSessionReply> opened = c->open_session(s.world, options);
+  if (!opened.ok()) die("open session: " + opened.status().message());
+  s.owned = 1000 / players;
+  for (int p = 0; p < players; ++p) {
+    v1::JoinSessionRequest join;
+    join.set_world_id(s.world);
+    join.set_name("bench " + std::to_string(p + 1));
+    for (int i = 0; i < s.owned; ++i) {
+      v1::Handle* body = join.add_bodies();
+      body->set_index(s.first_body + p * s.owned + i);
+      body->set_generation(1);
+    }
+    Result<v1::JoinSessionReply> joined = c->join_session(join);
+    if (!joined.ok()) die("join: " + joined.status().message());
+    s.players.push_back(*joined);
+  }
+  return s;
+}
+
+double percentile(std::vector<double>* v, double p) {
+  if (v->empty()) return 0.0;
+  std::sort(v->begin(), v->end());
+  return (*v)[std::min(v->size() - 1, static_cast<size_t>(p * static_cast<double>(v->size())))];
+}
+
+// One player of the latency table, on its own thread and connection: watches as itself, sends
+// its input for each tick the world reaches, times until that tick's confirmation is read.
+void play_turns(const std::string& address, const Session& s, int slot, int64_t end, int warm_up,
+                std::vector<double>* latency_ms, std::atomic<int>* failures) {
+  const v1::JoinSessionReply& me = s.players[slot];
+  auto stub = own_connection(address);
+  grpc::ClientContext watch_context;
+  v1::WatchSessionRequest request;
+  request.set_world_id(s.world);
+  request.set_player_id(me.player_id());
+  request.set_player_secret(me.player_secret());
+  auto reader = stub->WatchSession(&watch_context, request);
+  v1::SessionEvent event;
+  int64_t sent_tick = -1;
+  Clock::time_point sent_at;
+  while (reader->Read(&event)) {
+    const int64_t tick = event.has_start() ? event.start().tick() : event.confirmed().tick().tick();
+    if (sent_tick >= 0 && tick == sent_tick + 1) {
+      if (sent_tick >= warm_up) {
+        latency_ms->push_back(
+            std::chrono::duration<double, std::milli>(Clock::now() - sent_at).count());
+      }
+      sent_tick = -1;
+    }
+    if (tick >= end) break;
+    if (sent_tick < 0 && tick >= me.first_input_tick()) {
+      v1::SendInputRequest input;
+      input.set_world_id(s.world);
+      input.set_player_id(me.player_id());
+      input.set_player_secret(me.player_secret());
+      input.set_tick(tick);
+      *input.mutable_input() = push(s.first_body + slot * s.owned, s.owned, tick);
+      v1::SendInputReply reply;
+      grpc::ClientContext context;
+      context.set_deadline(std::chrono::system_clock::now() + 30s);
+      sent_at = Clock::now();
+      sent_tick = tick;
+      if (!stub->SendInput(&context, input, &reply).ok()) ++*failures;
+    }
+  }
+  watch_context.TryCancel();
+  reader->Finish();
+}
+
+}  // namespace
+
+void latency_table(const NetOptions& options) {
+  ServerChild server(options.server);
+  client::ClientOptions direct;
+  direct.address = server.address();
+  auto owner = client::Client::connect(direct);
+  std::printf(
+      "## Input to confirmation, turn by turn on loopback (SEAL_RULE_ALL_INPUTS, %d ticks, "
+      "1000-body drifting world)\n\n"
+      "| players | ticks/s | p50 ms | p99 ms | max ms | samples |\n"
+      "|---|---|---|---|---|---|\n",
+      options.ticks);
+  for (int players : options.players) {
+    v1::SessionOptions session;
+    session.set_max_players(static_cast<uint32_t>(players));
+    session.set_input_delay(0);
+    session.set_seal(v1::SEAL_RULE_ALL_INPUTS);
+    const Session s = open_session(owner.get(), {"drifting_1000", drifting, 0}, players, session);
+    const int64_t end = options.ticks;
+    const int warm_up = std::min(20, options.ticks / 4);  // connections and caches settle
+    std::vector<std::vector<double>> latency(static_cast<size_t>(players));
+    std::atomic<int> failures{0};
+    const auto began = Clock::now();
+    std::vector<std::thread> threads;
+    for (int p = 0; p < players; ++p) {
+      threads.emplace_back(play_turns, server.address(), std::cref(s), p, end, warm_up,
+                           &latency[static_cast<size_t>(p)], &failures);
+    }
+    for (std::thread& t : threads) t.join();
+    const double seconds = std::chrono::duration<double>(Clock::now() - began).count();
+    if (failures > 0) die(std::to_string(failures.load()) + " inputs refused");
+    std::vector<double> all;
+    for (const auto& l : latency) all.insert(all.end(), l.begin(), l.end());
+    const size_t samples = all.size();
+    const double p50 = percentile(&all, 0.50);
+    const double p99 = percentile(&all, 0.99);
+    std::printf("| %d | %.0f | %.3f | %.3f | %.3f | %zu |\n", players,
+                static_cast<double>(end) / seconds, p50, p99, all.empty() ? 0.0 : all.back(),
+                samples);
+    std::fflush(stdout);
+    (void)owner->delete_world(s.world);
+  }
+  std::printf("\n");
+}
+
+namespace {
+
+// One world's rows of the bytes table.
+void bytes_rows(const std::string& address, const BenchWorld& w, const NetOptions& options) {
+  client::ClientOptions direct;
+  direct.address = address;
+  auto owner = client::Client::connect(direct);
+  constexpr int kPlayers = 4;
+  constexpr int64_t kDelay = 3;
+  v1::SessionOptions session;
+  session.set_max_players(kPlayers);
+  session.set_input_delay(kDelay);
+  session.set_missing_input(v1::MISSING_INPUT_REPEAT_LAST);
+  session.set_seal(v1::SEAL_RULE_ON_STEP);
+  const Session s = open_session(owner.get(), w, kPlayers, session);
+
+  // The session stream as a spectator receives it.
+  std::mutex mu;
+  size_t start_bytes = 0;
+  size_t tick_bytes = 0;
+  int64_t ticks_seen = 0;
+  auto spectator = owner->watch_session(s.world, [&](const v1::SessionEvent& e) {
+    std::lock_guard<std::mutex> lock(mu);
+    if (e.has_start()) {
+      start_bytes = e.ByteSizeLong();
+    } else {
+      tick_bytes += e.ByteSizeLong();
+      ++ticks_seen;
+    }
+  });
+  if (!spectator.ok()) die("watch: " + spectator.status().message());
+
+  // Four frame readers of the same world, on connections of their own.
+  struct Reader {
+    const char* name;
+    client::FrameBodies bodies;
+    bool quantized;
+    std::unique_ptr<client::Client> client = nullptr;
+    std::unique_ptr<client::Subscription> subscription = nullptr;
+    size_t bytes = 0;
+    int64_t frames = 0;
+    int64_t skipped_ticks = 0;
+    size_t first_bytes = 0;
+  };
+  Reader readers[] = {
+      {"StreamFrames, every body, exact", client::FrameBodies::kAll, false},
+      {"StreamFrames, every body, quantized", client::FrameBodies::kAll, true},
+      {"StreamFrames, changed bodies, exact", client::FrameBodies::kChanged, false},
+      {"StreamFrames, changed bodies, quantized", client::FrameBodies::kChanged, true}};
+  for (Reader& r : readers) {
+    r.client = client::Client::connect(direct);
+    client::SubscribeOptions subscribe;
+    subscribe.bodies = r.bodies;
+    subscribe.quantized = r.quantized;
+    auto sub = r.client->subscribe(s.world, subscribe, [&mu, &r](const client::Frame& f) {
+      std::lock_guard<std::mutex> lock(mu);
+      if (r.frames == 0) {
+        r.first_bytes = f.message_bytes;  // the first frame of a stream lists every body
+      } else {
+        r.bytes += f.message_bytes;
+        r.skipped_ticks += f.skipped_ticks;
+      }
+      ++r.frames;
+    });
+    if (!sub.ok()) die("subscribe: " + sub.status().message());
+    r.subscription = std::move(sub).value();
+  }
+
+  // The players: each sends, whenever the world reaches tick T, its input for T + input_delay.
+  std::vector<std::unique_ptr<client::Client>> clients;
+  std::vector<std::unique_ptr<client::Subscription>> watches;
+  std::atomic<int> failures{0};
+  for (int p = 0; p < kPlayers; ++p) {
+    clients.push_back(client::Client::connect(direct));
+    client::Client* c = clients.back().get();
+    const v1::JoinSessionReply& me = s.players[static_cast<size_t>(p)];
+    auto watch = c->watch_session(
+        s.world,
+        [&, c, p, me](const v1::SessionEvent& e) {
+          const int64_t tick = e.has_start() ? e.start().tick() : e.confirmed().tick().tick();
+          if (!c->send_input(s.world, me, tick + kDelay,
+                             push(s.first_body + p * s.owned, s.owned, tick))
+                   .ok()) {
+            ++failures;
+          }
+        },
+        &me);
+    if (!watch.ok()) die("watch: " + watch.status().message());
+    watches.push_back(std::move(watch).value());
+  }
+  std::this_thread::sleep_for(200ms);  // every stream open before the clock starts
+  if (!owner->set_run_mode(s.world, client::RunMode::kRealTime).ok()) die("real time");
+  std::this_thread::sleep_for(std::chrono::milliseconds(options.bytes_ticks * 1000 / 60));
+  if (!owner->set_run_mode(s.world, client::RunMode::kPaused).ok()) die("pause");
+  std::this_thread::sleep_for(200ms);  // the last ticks delivered
+  for (auto& watch : watches) watch->cancel();
+  for (Reader& r : readers) r.subscription->cancel();
+  (*spectator)->cancel();
+
+  std::lock_guard<std::mutex> lock(mu);
+  std::printf("| %s | session stream (WatchSession) | %zu | %.1f | %lld | 0 |\n", w.name,
+              start_bytes, ticks_seen ? static_cast<double>(tick_bytes) / ticks_seen : 0.0,
+              static_cast<long long>(ticks_seen + 1));
+  for (const Reader& r : readers) {
+    const int64_t later = r.frames - 1;
+    std::printf("| %s | %s | %zu | %.1f | %lld | %lld |\n", w.name, r.name, r.first_bytes,
+                later > 0
+                    ? static_cast<double>(r.bytes) / static_cast<double>(later + r.skipped_ticks)
+                    : 0.0,
+                static_cast<long long>(r.frames), static_cast<long long>(r.skipped_ticks));
+  }
+  if (failures > 0)
+    std::printf("| %s | %d inputs refused (late on the clock) |\n", w.name, failures.load());
+  (void)owner->delete_world(s.world);
+}
+
+}  // namespace
+
+void bytes_table(const NetOptions& options) {
+  ServerChild server(options.server);
+  std::printf(
+      "## Bytes per client per tick: 4 players on the server's clock at 60 Hz, %d ticks\n\n"
+      "| world | stream | first message | bytes per tick | messages | ticks skipped |\n"
+      "|---|---|---|---|---|---|\n",
+      options.bytes_ticks);
+  const BenchWorld worlds[] = {{"drifting_1000 (every body moves)", drifting, 0},
+                               {"stacks_1000 (at rest until pushed)", stacks, 1}};
+  for (const BenchWorld& w : worlds) {
+    bytes_rows(server.address(), w, options);
+    std::fflush(stdout);
+  }
+  std::printf("\n");
+}
+
+}  // namespace fulcrum::session_bench
