@@ -28,6 +28,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <sstream>
@@ -165,11 +167,19 @@ double percentile(std::vector<double>* v, double p) {
   return (*v)[std::min(v->size() - 1, static_cast<size_t>(p * static_cast<double>(v->size())))];
 }
 
-// One player of the latency table, on its own thread and connection: watches as itself, sends
-// its input for each tick the world reaches, times until that tick's confirmation is read.
-void play_turns(const std::string& address, const Session& s, int slot, int64_t end, int warm_up,
-                std::vector<double>* latency_ms, std::atomic<int>* failures) {
-  const v1::JoinSessionReply& me = s.players[slot];
+// One player of the latency table, on its own thread and connection: watches as itself and,
+// whenever the world reaches tick T, sends its input for T + `ahead` (0 turn by turn; the
+// input delay on the clock), then times until the confirmation of that tick is read (the world
+// at T + ahead + 1). An input the clock sealed before it arrived is counted in `late`.
+struct Turns {
+  std::vector<double> latency_ms;
+  int64_t late = 0;
+  int64_t failures = 0;  // refused for another reason
+};
+
+void play(const std::string& address, const Session& s, int slot, int64_t end, int64_t ahead,
+          int warm_up, Turns* out) {
+  const v1::JoinSessionReply& me = s.players[static_cast<size_t>(slot)];
   auto stub = own_connection(address);
   grpc::ClientContext watch_context;
   v1::WatchSessionRequest request;
@@ -178,35 +188,92 @@ void play_turns(const std::string& address, const Session& s, int slot, int64_t 
   request.set_player_secret(me.player_secret());
   auto reader = stub->WatchSession(&watch_context, request);
   v1::SessionEvent event;
-  int64_t sent_tick = -1;
-  Clock::time_point sent_at;
+  std::map<int64_t, Clock::time_point> sent;  // inputs not confirmed yet, by tick
   while (reader->Read(&event)) {
     const int64_t tick = event.has_start() ? event.start().tick() : event.confirmed().tick().tick();
-    if (sent_tick >= 0 && tick == sent_tick + 1) {
-      if (sent_tick >= warm_up) {
-        latency_ms->push_back(
-            std::chrono::duration<double, std::milli>(Clock::now() - sent_at).count());
+    const auto confirmed = sent.find(tick - 1);
+    if (confirmed != sent.end()) {
+      if (confirmed->first >= warm_up) {
+        out->latency_ms.push_back(
+            std::chrono::duration<double, std::milli>(Clock::now() - confirmed->second).count());
       }
-      sent_tick = -1;
+      sent.erase(sent.begin(), std::next(confirmed));
     }
     if (tick >= end) break;
-    if (sent_tick < 0 && tick >= me.first_input_tick()) {
-      v1::SendInputRequest input;
-      input.set_world_id(s.world);
-      input.set_player_id(me.player_id());
-      input.set_player_secret(me.player_secret());
-      input.set_tick(tick);
-      *input.mutable_input() = push(s.first_body + slot * s.owned, s.owned, tick);
-      v1::SendInputReply reply;
-      grpc::ClientContext context;
-      context.set_deadline(std::chrono::system_clock::now() + 30s);
-      sent_at = Clock::now();
-      sent_tick = tick;
-      if (!stub->SendInput(&context, input, &reply).ok()) ++*failures;
+    const int64_t for_tick = tick + ahead;
+    if (for_tick < me.first_input_tick() || for_tick >= end || sent.count(for_tick) > 0) continue;
+    v1::SendInputRequest input;
+    input.set_world_id(s.world);
+    input.set_player_id(me.player_id());
+    input.set_player_secret(me.player_secret());
+    input.set_tick(for_tick);
+    *input.mutable_input() = push(s.first_body + slot * s.owned, s.owned, for_tick);
+    v1::SendInputReply reply;
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + 30s);
+    const auto at = Clock::now();
+    const grpc::Status st = stub->SendInput(&context, input, &reply);
+    if (st.ok()) {
+      sent[for_tick] = at;
+    } else if (st.error_code() == grpc::StatusCode::FAILED_PRECONDITION) {
+      ++out->late;
+    } else {
+      ++out->failures;
     }
   }
   watch_context.TryCancel();
   reader->Finish();
+}
+
+// p50, p99 and max of every player's samples, and the late inputs.
+struct Summary {
+  double p50 = 0.0;
+  double p99 = 0.0;
+  double max = 0.0;
+  size_t samples = 0;
+  int64_t late = 0;
+  double ticks_per_second = 0.0;
+};
+
+// One row: `players` players on a new drifting world, for `end` ticks.
+Summary latency_row(client::Client* owner, const std::string& address, int players, bool clock,
+                    int64_t end) {
+  constexpr int64_t kClockDelay = 2;
+  v1::SessionOptions session;
+  session.set_max_players(static_cast<uint32_t>(players));
+  session.set_input_delay(clock ? kClockDelay : 0);
+  session.set_missing_input(v1::MISSING_INPUT_REPEAT_LAST);
+  session.set_seal(clock ? v1::SEAL_RULE_ON_STEP : v1::SEAL_RULE_ALL_INPUTS);
+  const Session s = open_session(owner, {"drifting_1000", drifting, 0}, players, session);
+  const int warm_up = static_cast<int>(std::min<int64_t>(20, end / 4));  // connections settle
+  std::vector<Turns> turns(static_cast<size_t>(players));
+  const auto began = Clock::now();
+  std::vector<std::thread> threads;
+  for (int p = 0; p < players; ++p) {
+    threads.emplace_back(play, address, std::cref(s), p, end, clock ? kClockDelay : 0, warm_up,
+                         &turns[static_cast<size_t>(p)]);
+  }
+  if (clock) {
+    std::this_thread::sleep_for(200ms);  // every watch open
+    if (!owner->set_run_mode(s.world, client::RunMode::kRealTime).ok()) die("real time");
+  }
+  for (std::thread& t : threads) t.join();
+  Summary out;
+  out.ticks_per_second =
+      static_cast<double>(end) / std::chrono::duration<double>(Clock::now() - began).count();
+  if (clock) (void)owner->set_run_mode(s.world, client::RunMode::kPaused);
+  std::vector<double> all;
+  for (const Turns& t : turns) {
+    if (t.failures > 0) die(std::to_string(t.failures) + " inputs refused");
+    all.insert(all.end(), t.latency_ms.begin(), t.latency_ms.end());
+    out.late += t.late;
+  }
+  out.samples = all.size();
+  out.p50 = percentile(&all, 0.50);
+  out.p99 = percentile(&all, 0.99);
+  out.max = all.empty() ? 0.0 : all.back();
+  (void)owner->delete_world(s.world);
+  return out;
 }
 
 }  // namespace
@@ -217,40 +284,21 @@ void latency_table(const NetOptions& options) {
   direct.address = server.address();
   auto owner = client::Client::connect(direct);
   std::printf(
-      "## Input to confirmation, turn by turn on loopback (SEAL_RULE_ALL_INPUTS, %d ticks, "
-      "1000-body drifting world)\n\n"
-      "| players | ticks/s | p50 ms | p99 ms | max ms | samples |\n"
-      "|---|---|---|---|---|---|\n",
+      "## Input to confirmation on loopback, 1000-body drifting world, %d ticks a row (ms)\n\n"
+      "Turn by turn: SEAL_RULE_ALL_INPUTS, input_delay 0, each player sends the input for the "
+      "tick the world is at. On the clock: SEAL_RULE_ON_STEP at 60 Hz, input_delay 2, each "
+      "player sends the input for 2 ticks past the tick it sees.\n\n"
+      "| players | turn by turn: ticks/s | p50 | p99 | max | samples | on the clock: p50 | "
+      "p99 | max | late inputs |\n"
+      "|---|---|---|---|---|---|---|---|---|---|\n",
       options.ticks);
   for (int players : options.players) {
-    v1::SessionOptions session;
-    session.set_max_players(static_cast<uint32_t>(players));
-    session.set_input_delay(0);
-    session.set_seal(v1::SEAL_RULE_ALL_INPUTS);
-    const Session s = open_session(owner.get(), {"drifting_1000", drifting, 0}, players, session);
-    const int64_t end = options.ticks;
-    const int warm_up = std::min(20, options.ticks / 4);  // connections and caches settle
-    std::vector<std::vector<double>> latency(static_cast<size_t>(players));
-    std::atomic<int> failures{0};
-    const auto began = Clock::now();
-    std::vector<std::thread> threads;
-    for (int p = 0; p < players; ++p) {
-      threads.emplace_back(play_turns, server.address(), std::cref(s), p, end, warm_up,
-                           &latency[static_cast<size_t>(p)], &failures);
-    }
-    for (std::thread& t : threads) t.join();
-    const double seconds = std::chrono::duration<double>(Clock::now() - began).count();
-    if (failures > 0) die(std::to_string(failures.load()) + " inputs refused");
-    std::vector<double> all;
-    for (const auto& l : latency) all.insert(all.end(), l.begin(), l.end());
-    const size_t samples = all.size();
-    const double p50 = percentile(&all, 0.50);
-    const double p99 = percentile(&all, 0.99);
-    std::printf("| %d | %.0f | %.3f | %.3f | %.3f | %zu |\n", players,
-                static_cast<double>(end) / seconds, p50, p99, all.empty() ? 0.0 : all.back(),
-                samples);
+    const Summary turns = latency_row(owner.get(), server.address(), players, false, options.ticks);
+    const Summary clock = latency_row(owner.get(), server.address(), players, true, options.ticks);
+    std::printf("| %d | %.0f | %.3f | %.3f | %.3f | %zu | %.3f | %.3f | %.3f | %lld |\n", players,
+                turns.ticks_per_second, turns.p50, turns.p99, turns.max, turns.samples, clock.p50,
+                clock.p99, clock.max, static_cast<long long>(clock.late));
     std::fflush(stdout);
-    (void)owner->delete_world(s.world);
   }
   std::printf("\n");
 }
