@@ -1,6 +1,7 @@
 // What a multiplayer session costs. Prints Markdown tables; figures go in docs/multiplayer.md
 // with the machine and date.
-//   fulcrum_session_bench [--repeats N] [--ticks N] [--players 2,8,32] [--server PATH]
+//   fulcrum_session_bench [--repeats N] [--ticks N] [--players 2,8,32] [--clock-delay 2]
+//                         [--server PATH]
 //                         [--only rollback|latency|bytes]
 //
 // Rollback (fulcrum/rollback.h): when the server confirms a tick whose inputs differ from the
@@ -186,6 +187,8 @@ int main(int argc, char** argv) {
       repeats = std::max(1, std::atoi(value));
     } else if (flag == "--ticks") {
       net.ticks = std::max(40, std::atoi(value));
+    } else if (flag == "--clock-delay") {
+      net.clock_delay = std::max(1, std::atoi(value));
     } else if (flag == "--players") {
       net.players = parse_list(value);
     } else if (flag == "--server") {

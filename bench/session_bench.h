@@ -21,6 +21,7 @@ struct NetOptions {
   std::string server;        // the fulcrum-server binary
   std::vector<int> players;  // player counts of the latency table
   int ticks = 400;           // ticks per latency row
+  int clock_delay = 2;       // input_delay of the latency rows on the clock
   int bytes_ticks = 240;     // ticks on the server's clock for the bytes table
 };
 
