@@ -129,15 +129,19 @@ class InputSender {
       std::lock_guard<std::mutex> lock(mu_);
       ++in_flight_;
     }
+    Call* raw = call.get();
     stub_->async()->SendInput(
-        &call->context, &call->request, &call->reply, [this, call](grpc::Status status) {
-          std::lock_guard<std::mutex> lock(mu_);
+        &raw->context, &raw->request, &raw->reply,
+        [this, call = std::move(call)](grpc::Status status) mutable {
+          std::string error;
           if (!status.ok()) {
-            errors_.push_back("tick " + std::to_string(call->request.tick()) + ": " +
-                              status.error_message());
+            error = "tick " + std::to_string(call->request.tick()) + ": " + status.error_message();
           } else if (call->reply.duplicate()) {
-            errors_.push_back("tick " + std::to_string(call->request.tick()) + ": duplicate");
+            error = "tick " + std::to_string(call->request.tick()) + ": duplicate";
           }
+          call.reset();  // the call's state goes before finish() can return
+          std::lock_guard<std::mutex> lock(mu_);
+          if (!error.empty()) errors_.push_back(error);
           --in_flight_;
           cv_.notify_all();
         });
