@@ -1,6 +1,8 @@
-// What a multiplayer session costs a client. Prints Markdown tables; figures go in
-// docs/multiplayer.md with the machine and date.
-//   fulcrum_session_bench [--repeats N]
+// What a multiplayer session costs. Prints Markdown tables; figures go in docs/multiplayer.md
+// with the machine and date.
+//   fulcrum_session_bench [--repeats N] [--ticks N] [--players 2,8,32] [--clock-delay 2]
+//                         [--server PATH]
+//                         [--only rollback|latency|bytes]
 //
 // Rollback (fulcrum/rollback.h): when the server confirms a tick whose inputs differ from the
 // prediction, a PredictedWorld copies its confirmed world into the predicted world
@@ -8,6 +10,8 @@
 // N steps, engine only (no network, no protobuf), on 1000-body worlds. The table also shows
 // what a snapshot and a checked restore cost, the way to the same state across processes. The
 // deepest rollback that fits in one 60 Hz frame (16.7 ms) leaves nothing of the frame for the game.
+//
+// Latency and bytes (session_net.cpp) run a real fulcrum-server process on loopback.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -21,6 +25,7 @@
 #include "fulcrum/scene.h"
 #include "fulcrum/scenes.h"
 #include "fulcrum/state.h"
+#include "session_bench.h"
 
 namespace {
 
@@ -52,20 +57,6 @@ fulcrum::SceneBody dynamic(const Vec2& at, fulcrum::Geometry geometry) {
   shape.geometry = geometry;
   body.shapes.push_back(shape);
   return body;
-}
-
-// 1000 circles of radius 0.25 m on a 40 x 25 grid 1 m apart in zero gravity, each with its own
-// velocity (up to 2 m/s): load_bench's drifting_1000, where some bodies touch.
-SceneDef drifting() {
-  SceneDef scene;
-  scene.settings.gravity = Vec2::Zero();
-  for (int i = 0; i < 1000; ++i) {
-    fulcrum::SceneBody b = dynamic(Vec2(i % 40, i / 40), fulcrum::Circle{Vec2::Zero(), 0.25});
-    b.def.linear_velocity = Vec2(2.0 * std::sin(i * 1.7), 2.0 * std::cos(i * 2.3));
-    b.def.angular_velocity = std::sin(i * 0.9);
-    scene.bodies.push_back(std::move(b));
-  }
-  return scene;
 }
 
 // 1000 boxes of 0.8 m dropped from a 25 x 40 grid into a bin 26 m wide, measured once they are
@@ -101,7 +92,8 @@ void rollback_table(int repeats) {
       "| scene | bodies | contacts | step (of 16) | snapshot | restore | copy | 1 tick | 4 ticks "
       "| 8 ticks | 16 ticks | deepest in 16.7 ms (measured) |\n"
       "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
-  const Case cases[] = {{"drifting_1000", drifting, 60}, {"box_pile_1000", pile, 120}};
+  const Case cases[] = {{"drifting_1000", fulcrum::session_bench::drifting, 60},
+                        {"box_pile_1000", pile, 120}};
   for (const Case& c : cases) {
     auto built = fulcrum::build_world(c.scene());
     if (!built.ok()) {
@@ -144,11 +136,76 @@ void rollback_table(int repeats) {
 
 }  // namespace
 
+namespace fulcrum::session_bench {
+
+// Declared in session_bench.h; load_bench's drifting_1000, where some bodies touch.
+SceneDef drifting() {
+  SceneDef scene;
+  scene.settings.gravity = Vec2::Zero();
+  for (int i = 0; i < 1000; ++i) {
+    SceneBody b = dynamic(Vec2(i % 40, i / 40), Circle{Vec2::Zero(), 0.25});
+    b.def.linear_velocity = Vec2(2.0 * std::sin(i * 1.7), 2.0 * std::cos(i * 2.3));
+    b.def.angular_velocity = std::sin(i * 0.9);
+    scene.bodies.push_back(std::move(b));
+  }
+  return scene;
+}
+
+SceneDef stacks() {
+  SceneDef scene;
+  scenes::add_ground(&scene, 210.0);
+  for (int i = 0; i < 200; ++i) {
+    scenes::StackOptions stack;
+    stack.count = 5;
+    stack.box_size = 0.5;
+    stack.offset = 0.0;
+    stack.origin = Vec2(-199.0 + 2.0 * i, 0.0);
+    scenes::add_stack(&scene, stack);
+  }
+  return scene;
+}
+
+}  // namespace fulcrum::session_bench
+
+// "2,8,32" as numbers.
+std::vector<int> parse_list(const char* text) {
+  std::vector<int> out;
+  for (const char* p = text; *p;) {
+    out.push_back(std::max(1, std::atoi(p)));
+    while (*p && *p != ',') ++p;
+    if (*p == ',') ++p;
+  }
+  return out;
+}
+
 int main(int argc, char** argv) {
   int repeats = 15;
-  for (int i = 1; i + 1 < argc; ++i) {
-    if (std::strcmp(argv[i], "--repeats") == 0) repeats = std::max(1, std::atoi(argv[i + 1]));
+  std::string only;
+  fulcrum::session_bench::NetOptions net;
+  net.server = FULCRUM_SERVER_BIN;
+  net.players = {2, 8, 32};
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string flag = argv[i];
+    const char* value = argv[i + 1];
+    if (flag == "--repeats") {
+      repeats = std::max(1, std::atoi(value));
+    } else if (flag == "--ticks") {
+      net.ticks = std::max(40, std::atoi(value));
+    } else if (flag == "--clock-delay") {
+      net.clock_delay = std::max(1, std::atoi(value));
+    } else if (flag == "--players") {
+      net.players = parse_list(value);
+    } else if (flag == "--server") {
+      net.server = value;
+    } else if (flag == "--only") {
+      only = value;
+    } else {
+      std::fprintf(stderr, "fulcrum_session_bench: unknown flag %s\n", argv[i]);
+      return 2;
+    }
   }
-  rollback_table(repeats);
+  if (only.empty() || only == "rollback") rollback_table(repeats);
+  if (only.empty() || only == "latency") fulcrum::session_bench::latency_table(net);
+  if (only.empty() || only == "bytes") fulcrum::session_bench::bytes_table(net);
   return 0;
 }
