@@ -173,6 +173,15 @@ void follow(grpc::ClientReader<v1::SessionEvent>* reader, Follower* follower, in
   }
 }
 
+// The watch's first event, the start, read before anything else is done: once it has
+// arrived the server has registered the watcher, so every tick stepped after this reaches it.
+void read_start(grpc::ClientReader<v1::SessionEvent>* reader, Follower* follower) {
+  v1::SessionEvent event;
+  ASSERT_TRUE(reader->Read(&event));
+  ASSERT_TRUE(event.has_start());
+  follower->start(event);
+}
+
 TEST_F(MultiplayerTest, TwoPlayersTakeTurnsAndAWatcherFollowsBitForBit) {
   start();
   const uint64_t id = create_pyramid();
@@ -186,6 +195,8 @@ TEST_F(MultiplayerTest, TwoPlayersTakeTurnsAndAWatcherFollowsBitForBit) {
   v1::WatchSessionRequest watch;
   watch.set_world_id(id);
   auto reader = stub_->WatchSession(watch_context.get(), watch);
+  Follower follower;
+  read_start(reader.get(), &follower);
 
   v1::JoinSessionReply p1 = join(id, {kTop});
   ASSERT_TRUE(last_.ok()) << last_.error_message();
@@ -205,7 +216,6 @@ TEST_F(MultiplayerTest, TwoPlayersTakeTurnsAndAWatcherFollowsBitForBit) {
     EXPECT_EQ(info(id).tick(), t + 1);
   }
 
-  Follower follower;
   std::vector<v1::ConfirmedTick> seen;
   follow(reader.get(), &follower, 32, &seen);
   ASSERT_EQ(follower.world().tick(), 32);
@@ -329,6 +339,8 @@ TEST_F(MultiplayerTest, MissingInputsRepeatTheLastAndTheOwnersEditsComeFirst) {
   v1::WatchSessionRequest watch;
   watch.set_world_id(id);
   auto reader = stub_->WatchSession(watch_context.get(), watch);
+  Follower follower;
+  read_start(reader.get(), &follower);
   v1::JoinSessionReply p1 = join(id, {kTop});
   ASSERT_TRUE(last_.ok()) << last_.error_message();
   v1::EditBatch lift;
@@ -347,7 +359,6 @@ TEST_F(MultiplayerTest, MissingInputsRepeatTheLastAndTheOwnersEditsComeFirst) {
   }
   ASSERT_TRUE(step(id, 4).ok());
 
-  Follower follower;
   std::vector<v1::ConfirmedTick> seen;
   follow(reader.get(), &follower, 4, &seen);
   ASSERT_EQ(seen.size(), 4u);
@@ -370,8 +381,9 @@ TEST_F(MultiplayerTest, MissingInputsRepeatTheLastAndTheOwnersEditsComeFirst) {
   // A watcher that starts now begins from the world as it is and follows from there.
   auto late_context = context();
   auto late = stub_->WatchSession(late_context.get(), watch);
-  ASSERT_TRUE(step(id, 3).ok());
   Follower late_follower;
+  read_start(late.get(), &late_follower);
+  ASSERT_TRUE(step(id, 3).ok());
   follow(late.get(), &late_follower, 7);
   EXPECT_EQ(late_follower.confirmed(), 3);
   EXPECT_EQ(late_follower.world().state_hash(), info(id).state_hash());
