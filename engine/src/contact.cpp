@@ -51,7 +51,7 @@ bool overlapping(const Manifold& m) {
 }  // namespace
 
 bool WorldImpl::has_contact(int sa, int sb) const {
-  return contact_pairs.count(pair_key(sa, sb)) != 0;
+  return contact_pairs.contains(pair_key(sa, sb));
 }
 
 void WorldImpl::create_contact(int sa, int sb) {
@@ -81,7 +81,7 @@ void WorldImpl::create_contact(int sa, int sb) {
   c.restitution = std::max(shapes[sa].restitution, shapes[sb].restitution);
   link_edge(contacts, bodies, ci, 0, c.body_a);
   link_edge(contacts, bodies, ci, 1, c.body_b);
-  contact_pairs.emplace(pair_key(sa, sb), ci);
+  contact_pairs.insert(pair_key(sa, sb));
 }
 
 void WorldImpl::destroy_contact(int ci, bool report_end) {

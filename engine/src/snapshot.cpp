@@ -374,7 +374,7 @@ Status World::restore(const WorldSnapshot& s) {
   w.free_contacts = s.free_contacts;
   for (size_t ci = 0; ci < w.contacts.size(); ++ci) {
     const Contact& c = w.contacts[ci];
-    if (c.alive) w.contact_pairs.emplace(pair_key(c.shape_a, c.shape_b), static_cast<int>(ci));
+    if (c.alive) w.contact_pairs.insert(pair_key(c.shape_a, c.shape_b));
   }
   w.joints = s.joints;
   w.free_joints = s.free_joints;

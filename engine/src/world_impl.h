@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cstdint>
 #include <limits>
-#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -17,6 +16,7 @@
 #include "fulcrum/world.h"
 #include "joint_solver.h"
 #include "manifold.h"
+#include "pair_set.h"
 
 namespace fulcrum {
 
@@ -38,11 +38,10 @@ class WorldImpl {
   std::vector<int> free_joints;
   std::vector<JointId> pending_joint_events;  // destroyed with a body, reported next step
   std::vector<AttractorDef> attractors;       // applied in this order (forces.cpp)
-  // Every live contact by its pair of shapes (pair_key): the broad phase asks for each
-  // candidate pair whether it already has one. Determinism: an unordered container is safe
-  // here because it is only looked up, never iterated, so its order never reaches the results
-  // (snapshot restore rebuilds it from the contact pool).
-  std::unordered_map<uint64_t, int> contact_pairs;
+  // Every live contact's pair of shapes (pair_key): the broad phase asks for each candidate
+  // pair whether it already has one. Only looked up, never iterated (pair_set.h), so its
+  // layout never reaches the results; snapshot restore rebuilds it from the contact pool.
+  PairSet contact_pairs;
   std::vector<int> awake_bodies;  // unordered set (swap-remove); sorted when a step uses it
   int body_count = 0;
   int shape_count = 0;
