@@ -367,6 +367,12 @@ std::vector<Case> all_cases() {
       {joint, {kLimitError, "past a limit (rad)"}, pen, {kBodiesOut, "ragdolls not down"}}});
   c.push_back({13, "cloth", "no constraint stretched 5 % or more; no NaN", scene("cloth"), 600,
       {{kStretch, "max stretch"}, joint}});
+  c.push_back({19, "very_heavy_chain", "largest joint separation < 5 cm; no energy gain",
+      scene("very_heavy_chain"), 600, {joint, {kEnergyDrift, "energy gain (of |E0|)"}}});
+  c.push_back({20, "thin_planks",
+      "top plank moves < 1 cm; penetration <= 2 x slop; none passes through another",
+      scene("thin_planks"), 600,
+      {{kDisplacement, "top plank move (m)"}, pen, {kBodiesOut, "planks passed through"}}});
   // clang-format on
   return c;
 }

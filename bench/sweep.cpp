@@ -459,6 +459,15 @@ std::vector<Case> all_cases() {
       {pen, mean, {kDisplacement, "largest drum coordinate (m)"}, {kBodiesOut, "boxes out"}, speed},
       "90 ticks of 750, one run (the boxes land; the drum turns 37 deg)",
       true});
+  cases.push_back({19, "very_heavy_chain", "largest joint separation < 5 cm; no energy gain",
+      scene("very_heavy_chain"), 600, 600, kJointError, 0.05,
+      {joint, {kEnergyDrift, "energy gain (of |E0|)"}, speed},
+      ""});
+  cases.push_back({20, "thin_planks",
+      "top plank moves < 1 cm; penetration <= 2 x slop; none passes through another",
+      scene("thin_planks"), 600, 600, kDisplacement, 0.01,
+      {{kDisplacement, "top plank move (m)"}, pen, mean,
+       {kBodiesOut, "planks passed through"}, speed}, ""});
   // clang-format on
   // The velocity error against the reference solver, where one reference solve is cheap (tens
   // of milliseconds for most states, about a second at the cap): the small stack, the mass-ratio
