@@ -647,7 +647,10 @@ std::string markdown(const std::vector<CaseRun>& runs, const Options& o, const H
              ? "The twin insets each polygon's core by the skin so that the outlines are "
                "Fulcrum's (the corners are rounded by 0.01 m); 2.4.1's world-manifold "
                "separation includes the skin, so both penetration columns measure overlap of "
-               "the same outlines.\n"
+               "the same outlines. A polygon thinner than 0.025 m (two skins and the 0.005 m "
+               "core 2.4.1 needs at least) cannot be inset: its core is 0.005 m thick and its "
+               "outline 0.025 m, so case 20's 2 mm planks start 2.3 cm overlapped in Box2D, "
+               "and its figures there measure that.\n"
              : "Not compensated in this run (--b2-keep-skin): boxes that touch exactly start "
                "0.02 m overlapped in Box2D, and its penetration is skin overlap.\n")
      << "- Capsules: 2.4.1 has none; each is a box over the core segment (sides pulled in by "
