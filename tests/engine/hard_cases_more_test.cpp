@@ -234,7 +234,9 @@ PlanksRun run_planks(World& w) {
 // where it was built (the test below); 50 Hz gives 10.6 mm, 55 Hz 9.9 mm, 60 Hz 9.4 mm,
 // 75 Hz 8.9 mm. More substeps or iterations do not change the spring: 8 substeps, 4 velocity
 // or 4 relax iterations leave the 11.35 mm as it is. Rigid contacts (contact_hertz 0) move it
-// only 4.3 mm, but their 5 mm slop lets planks overlap by up to 1.8 mm.
+// only 4.3 mm, but their 5 mm slop lets planks overlap by up to 1.8 mm; the classic step (one
+// substep, rigid contacts) below 32 iterations lets a plank pass through the one below
+// (fulcrum_sweep, docs/sweep).
 TEST(HardCases, Case20ThinPlanks) {
   SceneDef s = scene("thin_planks");
   s.settings.contact_hertz = 60.0;
