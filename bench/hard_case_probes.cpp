@@ -445,9 +445,8 @@ class TumblerProbe : public Probe {
 // y = 0) stand: the top plank's centre moves less than 1 cm from where it was built, at every
 // tick; penetration <= 2 x slop (the runner's kMaxPenetration); and none passes through
 // another: at every tick each plank's centre stays above the centre of the plank below it, and
-// the bottom plank's above the ground's top. Planks 2 mm thick are a tenth of the default
-// 5 mm slop (the penetration allowed is five planks' thickness), so the order is the test that
-// a plank went through.
+// the bottom plank's above the ground's top. The penetration allowed (2 x the default 5 mm
+// slop) is five planks' thickness, so the order is the test that a plank went through.
 class PlanksProbe : public Probe {
   Vec2 top0_ = Vec2::Zero();
   double top_move_ = 0.0;

@@ -37,7 +37,7 @@ SceneDef heavy_chain(double end_mass);
 // Case 20: 10 planks 2 m x 2 mm (density 1, friction 0.6) stacked flat on a static ground,
 // each resting exactly on the one below, offset sideways alternately by +1 cm and -1 cm, sleep
 // off. bodies[0] is the ground, bodies[1 + i] plank i counted from the bottom; the top plank
-// is the last body. A plank is a tenth of the default linear slop (5 mm) thick.
+// is the last body. A plank is thinner than the default linear slop (2 mm against 5 mm).
 SceneDef thin_planks();
 
 }  // namespace fulcrum::scenes::hard
