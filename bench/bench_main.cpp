@@ -92,12 +92,21 @@ Row run(const Entry& e, int repeats, int iterations, int threads) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::vector<Entry> table = {
-      {"large_pyramid", 500}, {"many_pyramids", 500}, {"many_pyramids_grid", 200},
-      {"tumbler", 750},       {"particle_pile", 300}, {"circle_pile", 300},
-      {"joint_grid", 500},    {"cloth", 600},         {"ragdolls", 600},
-      {"ragdoll_rain", 300},  {"rain", 1000},         {"smash", 300},
-      {"spinner", 500}};
+  std::vector<Entry> table = {{"large_pyramid", 500},
+                              {"many_pyramids", 500},
+                              {"many_pyramids_grid", 200},
+                              {"tumbler", 750},
+                              {"particle_pile", 300},
+                              {"circle_pile", 300},
+                              {"joint_grid", 500},
+                              {"cloth", 600},
+                              {"ragdolls", 600},
+                              {"ragdoll_rain", 300},
+                              {"rain", 1000},
+                              {"smash", 300},
+                              {"spinner", 500},
+                              {"very_heavy_chain", 600},
+                              {"thin_planks", 600}};
   std::vector<Entry> chosen;
   int repeats = 3, steps = 0, iterations = 0, threads = 1;
   bool csv = false;

@@ -76,6 +76,20 @@ void inset(const Polygon& poly, double d, b2Vec2* out) {
   }
 }
 
+// The polygon's core width across its narrowest side: over the edges, the largest distance of
+// a vertex behind the edge, the smallest of those.
+double thinnest_width(const Polygon& poly) {
+  double thinnest = 1e300;
+  for (int i = 0; i < poly.count; ++i) {
+    double deepest = 0.0;
+    for (int j = 0; j < poly.count; ++j) {
+      deepest = std::max(deepest, dot(poly.normals[i], poly.vertices[i] - poly.vertices[j]));
+    }
+    thinnest = std::min(thinnest, deepest);
+  }
+  return thinnest;
+}
+
 static_assert(kMaxPolygonVertices <= b2_maxPolygonVertices, "a Fulcrum polygon fits in Box2D's");
 
 void add_polygon(b2Body* body, const Polygon& poly, b2FixtureDef fd, const TwinOptions& options,
@@ -84,10 +98,20 @@ void add_polygon(b2Body* body, const Polygon& poly, b2FixtureDef fd, const TwinO
   const int n = poly.count;
   // Fulcrum's outline is the core grown by poly.radius; 2.4.1's is the core grown by its
   // skin. Insetting the core by the difference makes the outlines' sides agree.
-  const double d = options.compensate_skin ? b2_polygonRadius - poly.radius : 0.0;
+  double d = options.compensate_skin ? b2_polygonRadius - poly.radius : 0.0;
+  // 2.4.1 welds core vertices closer than half its linear slop, so a core must stay about a
+  // slop thick: a polygon thinner than that plus twice the skin (0.025 m; HARD_CASES 20's 2 mm
+  // planks) keeps a core b2_linearSlop thick, and its outline is thicker than Fulcrum's.
+  const double width = thinnest_width(poly);
+  const bool thin = width - 2.0 * d < b2_linearSlop;
+  if (thin) d = 0.5 * (width - b2_linearSlop);
   if (d != 0.0) {
     inset(poly, d, pts);
-    ++(poly.radius > 0.0 ? notes->rounded_polygons : notes->inset_polygons);
+    if (thin) {
+      ++notes->thin_polygons;
+    } else {
+      ++(poly.radius > 0.0 ? notes->rounded_polygons : notes->inset_polygons);
+    }
   } else {
     for (int i = 0; i < n; ++i) pts[i] = to_b2(poly.vertices[i]);
   }
@@ -264,6 +288,9 @@ std::vector<std::string> TwinNotes::lines() const {
   add(rounded_polygons,
       "rounded polygon core(s) grown by Fulcrum's radius less the skin (sides = Fulcrum's, "
       "corners rounded by 0.01 m instead of the radius)");
+  add(thin_polygons,
+      "polygon(s) thinner than 2.4.1 can make (2 x 0.01 m skin + 0.005 m core): core 0.005 m "
+      "thick, outline that much plus 0.02 m thick (thicker than Fulcrum's)");
   add(skinned_segments, "segment(s) as two-sided edges, with 2.4.1's 0.01 m skin on top");
   add(wide_filters, "filter(s) truncated to 16 bits");
   add(revolute_springs, "revolute spring(s) dropped (2.4.1 has none)");

@@ -37,6 +37,7 @@ struct TwinNotes {
   int capsules = 0;             // capsule -> one box + two circles on the same body
   int inset_polygons = 0;       // polygon cores inset by the skin
   int rounded_polygons = 0;     // rounded polygons: core offset by the skin less their radius
+  int thin_polygons = 0;        // polygons too thin to inset: core b2_linearSlop thick
   int skinned_segments = 0;     // segments and chain links: edges carry the 0.01 m skin
   int wide_filters = 0;         // categories or groups beyond Box2D's 16 bits (truncated)
   int joints = 0;               // joints converted

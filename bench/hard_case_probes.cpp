@@ -215,8 +215,8 @@ class ConfinedProbe : public Probe {
   }
 };
 
-// Cases 9, 10 and 11: the largest joint separation (the runner's kJointError) stays under
-// `limit` at every tick. The chain (10) also never gains mechanical energy (beyond 1e-6 of
+// Cases 9, 10, 11 and 19: the largest joint separation (the runner's kJointError) stays under
+// `limit` at every tick. The chains (10, 19) also never gain mechanical energy (beyond 1e-6 of
 // |E0|: rounding); the bridge (11) holds a steady sag: its middle plank (body 81: body 0 is
 // the ground, 1 the anchor, so plank 79) varies in height by less than 1 cm over the last
 // second (ticks N-59..N), at rest to the eye against its ~16 m sag. The scene table's bridge
@@ -441,6 +441,41 @@ class TumblerProbe : public Probe {
   }
 };
 
+// Case 20: the planks (bodies 1 on, from the bottom up; body 0 is the ground, its top face at
+// y = 0) stand: the top plank's centre moves less than 1 cm from where it was built, at every
+// tick; penetration <= 2 x slop (the runner's kMaxPenetration); and none passes through
+// another: at every tick each plank's centre stays above the centre of the plank below it, and
+// the bottom plank's above the ground's top. The penetration allowed (2 x the default 5 mm
+// slop) is five planks' thickness, so the order is the test that a plank went through.
+class PlanksProbe : public Probe {
+  Vec2 top0_ = Vec2::Zero();
+  double top_move_ = 0.0;
+  std::vector<bool> through_;
+
+ public:
+  void begin(const View& v) override {
+    top0_ = v.center(v.body_count() - 1);
+    through_.assign(v.body_count(), false);
+  }
+  void after_tick(const View& v) override {
+    top_move_ = std::max(top_move_, distance(top0_, v.center(v.body_count() - 1)));
+    double below = 0.0;  // the ground's top face
+    for (size_t i = 1; i < v.body_count(); ++i) {
+      double y = v.center(i).y();
+      if (!(y > below)) through_[i] = true;
+      below = y;
+    }
+  }
+  void finish(const View& v, Measures* m) override {
+    const int through = static_cast<int>(std::count(through_.begin(), through_.end(), true));
+    m->set(kDisplacement, top_move_);
+    m->set(kBodiesOut, through);
+    m->check(top_move_ < 0.01, "top plank moved " + num(top_move_) + " >= 0.01");
+    check_penetration(m, 2.0 * v.scene().settings.linear_slop, true);
+    m->check(through == 0, std::to_string(through) + " planks passed through the one below");
+  }
+};
+
 // Any other scene: how far the bodies moved, no criterion.
 class MovedProbe : public Probe {
   std::vector<Vec2> start_;
@@ -493,6 +528,10 @@ std::unique_ptr<Probe> hard_case_probe(int id) {
       return std::make_unique<PendulumProbe>();
     case 18:
       return std::make_unique<TumblerProbe>();
+    case 19:
+      return std::make_unique<JointProbe>(0.05, true, false);
+    case 20:
+      return std::make_unique<PlanksProbe>();
     default:
       return nullptr;
   }

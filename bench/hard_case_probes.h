@@ -113,9 +113,9 @@ class Probe {
 };
 
 // The probe that judges HARD_CASES case `id` (what each checks: hard_case_probes.cpp, above
-// each class), with the scene layout of the scene table's builtin (and, for the heavy chain
-// (10) and the pendulum (16), of the scenes their tests build). Null for the bullet (17):
-// its criterion needs worlds of its own (fulcrum_sweep runs them), and for ids outside 1..18.
+// each class), with the scene layout of the scene table's builtin (and, for the pendulum (16),
+// of the scene its test builds). Null for the bullet (17): its criterion needs worlds of its
+// own (fulcrum_sweep runs them), and for ids outside 1..20.
 std::unique_ptr<Probe> hard_case_probe(int id);
 
 // Any other scene: how far the bodies moved (displacement, bodies moved > 0.5 m), no criterion.

@@ -147,47 +147,7 @@ const char* const kMeasureCsv[kMeasureCount] = {
     "max_joint_error_m", "max_stretch",        "max_limit_error_rad",    "energy_drift",
     "max_speed_m_s",     "analytic_error",     "ref_velocity_error_m_s", "ref_angular_error_rad_s"};
 
-// --- Scenes the registry does not hold (cases 10 and 16 are built in their tests) ------------
-
-// Case 10: 40 capsule links 1 m long (radius 0.125) laid out horizontally from a static anchor
-// at (0, 50), then a ball of radius 0.5 with 100 times one link's mass; revolute joints at the
-// link ends. Built as tests/engine/joint_test.cpp Case10HeavyChain builds it.
-SceneDef heavy_chain() {
-  const double link_radius = 0.125;
-  ShapeDef link;
-  link.geometry =
-      fulcrum::Capsule{Vec2(-0.5 + link_radius, 0.0), Vec2(0.5 - link_radius, 0.0), link_radius};
-  // One link's mass as the engine computes it, so that the ball is exactly 100 of them.
-  World probe;
-  fulcrum::BodyDef def;
-  def.type = BodyType::kDynamic;
-  BodyId id = probe.create_body(def).value();
-  (void)probe.create_shape(id, link);
-  const double link_mass = probe.body_state(id).value().mass;
-
-  SceneDef s;
-  SceneBody anchor;
-  anchor.def.position = Vec2(0.0, 50.0);
-  s.bodies.push_back(anchor);
-  for (int i = 0; i < 41; ++i) {
-    bool is_ball = i == 40;
-    SceneBody b;
-    b.def.type = BodyType::kDynamic;
-    b.def.position = Vec2(is_ball ? 40.5 : 0.5 + i, 50.0);
-    ShapeDef shape = link;
-    if (is_ball) {
-      shape.geometry = fulcrum::Circle{Vec2::Zero(), 0.5};
-      shape.density = 100.0 * link_mass / (fulcrum::kPi * 0.25);
-    }
-    b.shapes.push_back(shape);
-    s.bodies.push_back(b);
-    RevoluteJointDef j;
-    j.local_anchor_a = i == 0 ? Vec2::Zero() : Vec2(0.5, 0.0);
-    j.local_anchor_b = Vec2(-0.5, 0.0);
-    s.joints.push_back(SceneJoint{i, i + 1, j});
-  }
-  return s;
-}
+// --- A scene the registry does not hold (case 16 is built in its test) -----------------------
 
 // Case 16: a particle (radius 0.05) on a 1 m rod (a distance joint) from a static pivot at the
 // origin, released at 5 degrees. As tests/engine/joint_test.cpp Case16PendulumOnADistanceJoint.
@@ -426,7 +386,7 @@ std::vector<Case> all_cases() {
       "80 ticks of 500, one run (at the default the error grows to 0.49 m by then, 0.55 m at "
       "its peak near tick 110)", true});
   cases.push_back({10, "heavy_chain", "largest joint separation < 5 cm; no energy gain",
-      heavy_chain, 600, 600, kJointError, 0.05,
+      scene("heavy_chain"), 600, 600, kJointError, 0.05,
       {joint, {kEnergyDrift, "energy gain (of |E0|)"}, speed},
       ""});
   cases.push_back({11, "bridge",
@@ -459,6 +419,15 @@ std::vector<Case> all_cases() {
       {pen, mean, {kDisplacement, "largest drum coordinate (m)"}, {kBodiesOut, "boxes out"}, speed},
       "90 ticks of 750, one run (the boxes land; the drum turns 37 deg)",
       true});
+  cases.push_back({19, "very_heavy_chain", "largest joint separation < 5 cm; no energy gain",
+      scene("very_heavy_chain"), 600, 600, kJointError, 0.05,
+      {joint, {kEnergyDrift, "energy gain (of |E0|)"}, speed},
+      ""});
+  cases.push_back({20, "thin_planks",
+      "top plank moves < 1 cm; penetration <= 2 x slop; none passes through another",
+      scene("thin_planks"), 600, 600, kDisplacement, 0.01,
+      {{kDisplacement, "top plank move (m)"}, pen, mean,
+       {kBodiesOut, "planks passed through"}, speed}, ""});
   // clang-format on
   // The velocity error against the reference solver, where one reference solve is cheap (tens
   // of milliseconds for most states, about a second at the cap): the small stack, the mass-ratio

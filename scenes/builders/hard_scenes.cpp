@@ -103,4 +103,35 @@ SceneDef bullet() {
   return s;
 }
 
+SceneDef heavy_chain(double end_mass) {
+  SceneDef s;
+  JointChainOptions o;
+  o.anchor = Vec2(0.0, 50.0);
+  o.links = 40;
+  o.end_mass = end_mass;
+  add_joint_chain(&s, o);
+  return s;
+}
+
+SceneDef thin_planks() {
+  constexpr int kCount = 10;
+  constexpr double kHalfLength = 1.0, kHalfThickness = 0.001, kOffset = 0.01;
+  SceneDef s;
+  // Kept awake, as the arch: the test judges the whole 10 s, and a stack asleep cannot creep.
+  s.settings.enable_sleep = false;
+  add_ground(&s, 20.0);
+  for (int i = 0; i < kCount; ++i) {
+    SceneBody plank;
+    plank.def.type = BodyType::kDynamic;
+    plank.def.position = Vec2(i % 2 == 0 ? kOffset : -kOffset, kHalfThickness * (2 * i + 1));
+    ShapeDef shape;
+    shape.geometry = make_box(kHalfLength, kHalfThickness);
+    shape.density = 1.0;
+    shape.friction = 0.6;
+    plank.shapes.push_back(shape);
+    s.bodies.push_back(plank);
+  }
+  return s;
+}
+
 }  // namespace fulcrum::scenes::hard

@@ -1,4 +1,5 @@
-// Builders of the hard cases that live outside scenes.cpp (HARD_CASES.md cases 7, 8 and 17).
+// Builders of the hard cases that live outside scenes.cpp (HARD_CASES.md cases 7, 8, 10, 17, 19
+// and 20).
 // Internal to the scenes library: reach them by name through scenes::builtin().
 #pragma once
 
@@ -25,5 +26,18 @@ SceneDef confined();
 // to the tick grid (from this start it is stopped; from most others it is not): see case 17
 // in tests/engine/hard_cases_more_test.cpp.
 SceneDef bullet();
+
+// Cases 10 and 19: 40 capsule links 1 m long (0.25 m wide) laid out horizontally from a static
+// anchor at (0, 50), then a ball of radius 0.5 with `end_mass` times one link's mass (100 for
+// case 10, 1000 for case 19), revolute joints at the link ends (scenes::add_joint_chain).
+// bodies[0] is the anchor, bodies[1..40] the links, bodies[41] the ball; joint k ties body k to
+// body k + 1. Released, the chain swings down and the ball whips through the bottom.
+SceneDef heavy_chain(double end_mass);
+
+// Case 20: 10 planks 2 m x 2 mm (density 1, friction 0.6) stacked flat on a static ground,
+// each resting exactly on the one below, offset sideways alternately by +1 cm and -1 cm, sleep
+// off. bodies[0] is the ground, bodies[1 + i] plank i counted from the bottom; the top plank
+// is the last body. A plank is thinner than the default linear slop (2 mm against 5 mm).
+SceneDef thin_planks();
 
 }  // namespace fulcrum::scenes::hard

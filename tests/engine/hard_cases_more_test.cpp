@@ -1,4 +1,4 @@
-// HARD_CASES.md cases 3, 5, 7, 8 and 17, each against its pass criterion. "Penetration" is the
+// HARD_CASES.md cases 3, 5, 7, 8, 17 and 20, each against its pass criterion. "Penetration" is the
 // largest overlap over all contact points, sampled every tick after the first second.
 #include <gtest/gtest.h>
 
@@ -181,6 +181,86 @@ TEST(HardCases, Case17Bullet) {
   EXPECT_EQ(bullet_pass_throughs(300.0, -10.0, 100), 0);
   EXPECT_EQ(bullet_pass_throughs(30.0, -2.0, 100), 0);
   EXPECT_EQ(bullet_pass_throughs(15.0, -2.0, 50), 0);
+}
+
+// Case 20's run over 600 ticks (10 s): how far the top plank's centre got from where it was
+// built, at any tick; the largest penetration after the first second; and how many planks
+// passed through the one below: at some tick a plank's centre was not above the centre of the
+// plank under it (for the bottom plank, the ground's top face at y = 0). The planks are 2 mm
+// thick and the penetration allowed is 2 x slop = 10 mm, five planks, so the order is what
+// tells a plank that went through.
+struct PlanksRun {
+  double top_move = 0.0;
+  double penetration = 0.0;
+  int through = 0;
+  Vec2 top_at_1s = Vec2::Zero();
+  double top_move_after_1s = 0.0;  // from where the top plank was at 1 s
+};
+PlanksRun run_planks(World& w) {
+  const std::vector<BodyId> ids = w.bodies();
+  EXPECT_EQ(ids.size(), 11u);
+  const BodyId top = ids.back();
+  const Vec2 built = w.body_state(top)->center;
+  std::vector<bool> through(ids.size(), false);
+  PlanksRun r;
+  for (int i = 0; i < 600; ++i) {
+    w.step();
+    const Vec2 c = w.body_state(top)->center;
+    r.top_move = std::max(r.top_move, distance(built, c));
+    if (w.tick() == 60) r.top_at_1s = c;
+    if (w.tick() > 60) {
+      r.penetration = std::max(r.penetration, w.metrics().max_penetration);
+      r.top_move_after_1s = std::max(r.top_move_after_1s, distance(r.top_at_1s, c));
+    }
+    double below = 0.0;
+    for (size_t k = 1; k < ids.size(); ++k) {
+      const double y = w.body_state(ids[k])->center.y();
+      if (!(y > below)) through[k] = true;
+      below = y;
+    }
+  }
+  EXPECT_TRUE(all_finite(w));
+  r.through = static_cast<int>(std::count(through.begin(), through.end(), true));
+  return r;
+}
+
+// Case 20: 10 planks 2 m x 2 mm stacked flat, offset alternately by +-1 cm, stand for 10 s:
+// the top plank moves less than 1 cm, penetration stays within 2 x slop and no plank passes
+// through another.
+// PINNED SETTING: contact_hertz = 60 (default 45), as for the arch (case 7). The move is the
+// soft contacts' compliance under the stack's weight, not a creep: the stack settles within
+// the first second and stays, each contact compressed in proportion to the load on it (the
+// bottom one 1.7 mm, most of a plank's thickness). At 45 Hz the top plank ends 11.35 mm below
+// where it was built (the test below); 50 Hz gives 10.6 mm, 55 Hz 9.9 mm, 60 Hz 9.4 mm,
+// 75 Hz 8.9 mm. More substeps or iterations do not change the spring: 8 substeps, 4 velocity
+// or 4 relax iterations leave the 11.35 mm as it is. Rigid contacts (contact_hertz 0) move it
+// only 4.3 mm, but their 5 mm slop lets planks overlap by up to 1.8 mm; the classic step (one
+// substep, rigid contacts) below 32 iterations lets a plank pass through the one below
+// (fulcrum_sweep, docs/sweep).
+TEST(HardCases, Case20ThinPlanks) {
+  SceneDef s = scene("thin_planks");
+  s.settings.contact_hertz = 60.0;
+  World w = build(s);
+  PlanksRun r = run_planks(w);
+  EXPECT_LT(r.top_move, 0.01);
+  EXPECT_LE(r.penetration, 2.0 * w.settings().linear_slop);
+  EXPECT_EQ(r.through, 0);
+}
+
+// Case 20 at the DEFAULT settings, the open hard case: the top plank sinks 11.35 mm (the
+// stack of 20 mm compressed by more than half), over the 1 cm allowed; penetration (1.7 mm)
+// and the order of the planks hold, and from 1 s on the stack stands still (the top plank
+// moves less than 1 micrometre; "stands" counted from the resting place after settling).
+// The sink is pinned to within 10 % so that a change of the contact solver shows, and the
+// test fails once the defaults meet 1 cm, to be tightened then.
+TEST(HardCases, Case20ThinPlanksAtTheDefaultsIsOpen) {
+  World w = build("thin_planks");
+  PlanksRun r = run_planks(w);
+  EXPECT_NEAR(r.top_move, 0.01135, 0.0011);
+  EXPECT_GE(r.top_move, 0.01) << "the defaults now meet HARD_CASES 20: tighten this test";
+  EXPECT_LE(r.penetration, 2.0 * w.settings().linear_slop);
+  EXPECT_EQ(r.through, 0);
+  EXPECT_LT(r.top_move_after_1s, 1e-6);
 }
 
 }  // namespace

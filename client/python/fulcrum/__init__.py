@@ -20,7 +20,7 @@ except ImportError as _error:  # the sources without the stubs CMake generates
         f"(docs/python.md) [{_error}]") from None
 
 from .client import CHANNEL_OPTIONS, Client, connect
-from .edits import Batch
+from .edits import Batch, attractor
 from .errors import FulcrumError
 from .frames import BodyState, Frame, FrameStream
 from .replays import Replay, ReplayReport
@@ -37,7 +37,7 @@ __version__ = "0.1.0"
 __all__ = [
     "Batch", "BodyState", "CHANNEL_OPTIONS", "Client", "EditResult", "Frame", "FrameStream",
     "FulcrumError", "Handle", "Player", "SessionEvents", "RayHit", "Replay", "ReplayReport", "ShapeHit", "Snapshot",
-    "StepResult", "Trajectory", "World", "connect", "edit_pb2", "fnv1a64", "frames_pb2", "load_scene",
+    "StepResult", "Trajectory", "World", "attractor", "connect", "edit_pb2", "fnv1a64", "frames_pb2", "load_scene",
     "scene_from_dict", "scene_from_json", "scene_pb2", "scene_to_dict", "service_pb2",
     "snapshot_pb2",
 ]

@@ -155,10 +155,56 @@ class EditMethods:
         settings = message_of(settings, scene_pb2.WorldSettings, self._where("set_settings"))
         return self._edit(edit_pb2.Edit(set_settings=settings), "set_settings")
 
+    def set_constant_force(self, body, force=(0.0, 0.0), torque=0.0):
+        """A force (N) at the centre of mass and a torque (N m) acting every tick from the next
+        on, until set again; replaces the body's previous ones (zeros: none)."""
+        where = self._where("set_constant_force")
+        return self._edit(edit_pb2.Edit(set_constant_force=edit_pb2.SetConstantForce(
+            body=to_handle(body, where + ".body"), force=to_vec2(force, where + ".force"),
+            torque=to_float(torque, where + ".torque"))), "set_constant_force")
+
+    def set_attractors(self, attractors=()):
+        """Replaces the world's attractors as a whole (empty: none). Each is a dict in scene
+        JSON form, a fulcrum.v1.Attractor or one made by fulcrum.attractor()."""
+        where = self._where("set_attractors")
+        message = edit_pb2.SetAttractors()
+        for i, a in enumerate(attractors):
+            message.attractors.append(
+                message_of(a, scene_pb2.Attractor, f"{where}.attractors[{i}]"))
+        return self._edit(edit_pb2.Edit(set_attractors=message), "set_attractors")
+
     def set_awake(self, body, awake=True):
         where = self._where("set_awake")
         return self._edit(edit_pb2.Edit(set_awake=edit_pb2.SetAwake(
             body=to_handle(body, where + ".body"), awake=bool(awake))), "set_awake")
+
+
+_FALLOFFS = {"constant": scene_pb2.FALLOFF_CONSTANT,
+             "inverse_square": scene_pb2.FALLOFF_INVERSE_SQUARE}
+
+
+def attractor(point=(0.0, 0.0), strength=0.0, falloff="constant", min_distance=None,
+              per_mass=None, mask_bits=None):
+    """A fulcrum.v1.Attractor (scene.proto): a pull toward `point` (m; a push for negative
+    strength) on every dynamic body whose shapes' category bits meet `mask_bits`. `strength` is
+    an acceleration (m/s^2) when `per_mass` (the server's default), else a force (N); with
+    falloff "inverse_square" it is the pull at 1 m. Inside `min_distance` (m; the server's
+    default 0.5) the pull falls linearly to zero at the point. Arguments left None take the
+    server's defaults."""
+    field = "attractor"
+    if falloff not in _FALLOFFS:
+        raise invalid_argument(field + ".falloff",
+                               f"expected one of {sorted(_FALLOFFS)}, got {falloff!r}")
+    message = scene_pb2.Attractor(point=to_vec2(point, field + ".point"),
+                                  strength=to_float(strength, field + ".strength"),
+                                  falloff=_FALLOFFS[falloff])
+    if min_distance is not None:
+        message.min_distance = to_float(min_distance, field + ".min_distance")
+    if per_mass is not None:
+        message.per_mass = bool(per_mass)
+    if mask_bits is not None:
+        message.mask_bits = int(mask_bits)
+    return message
 
 
 def edit_result(reply):
