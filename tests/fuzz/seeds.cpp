@@ -280,6 +280,22 @@ void snapshot_stream_seeds() {
           setup(1, true, false) + upload(8192, false, true));
     write("snapshot_stream", name + "_cut_short",
           setup(2, false, false) + upload(size / 4 + 1, true, false));
+    // A StepTrajectory on the mixed world first (set-up bit 6), sampling two bodies every 3
+    // ticks, or every body every tick; then the upload.
+    World mixed = fuzz::base_world(2);
+    const std::vector<BodyId> bodies = dynamic_bodies(mixed);
+    const std::string trajectory =
+        source == 0
+            ? from_text<v1::StepTrajectoryRequest>(
+                  "world_id: 1 ticks: 10 every_ticks: 3 include_start: true bodies " +
+                  handle(bodies[0]) + " bodies " + handle(bodies[1]))
+                  .SerializeAsString()
+            : from_text<v1::StepTrajectoryRequest>("world_id: 1 ticks: 4").SerializeAsString();
+    write("snapshot_stream", name + "_after_trajectory",
+          std::string(1, static_cast<char>(0x40 | 1 | (source << 4))) +
+              static_cast<char>(trajectory.size() & 0xff) +
+              static_cast<char>((trajectory.size() >> 8) & 0xff) + trajectory +
+              upload(60000, true, true));
   }
 }
 

@@ -1,8 +1,11 @@
-// Fuzz target: snapshots in chunks, both ways (DownloadSnapshot, RestoreSnapshotStream), through
-// a server started once per process on a loopback port: the upload reads its chunks from a
-// gRPC stream, so it is driven as a client drives it.
+// Fuzz target: the calls that stream what a unary call would return whole: snapshots in chunks,
+// both ways (DownloadSnapshot, RestoreSnapshotStream), and StepTrajectory, through a server
+// started once per process on a loopback port (the upload reads its chunks from a gRPC stream,
+// so it is driven as a client drives it).
 //
-// Input: a byte of set-up, then chunks of 12 bytes each, sent in order on one upload:
+// Input: a byte of set-up, with bit 6 a StepTrajectory call first (a two-byte little-endian
+// length and that many bytes of StepTrajectoryRequest; a world_id of 1 names the world), then
+// chunks of 12 bytes each, sent in order on one upload:
 //   set-up: bits 0-1 the base world the server's world starts from (bridge, mixed, bounce:
 //     fuzz_worlds.h; the ragdolls are left out, too slow here); bit 2 the upload rolls that world
 //     back (world_id its id) rather than forking a new world; bit 3 the world is downloaded
@@ -21,9 +24,13 @@
 // the snapshot unchanged restores exactly that snapshot (its tick and hash, into the world or a
 // new one); damaged bytes behind a right checksum are refused without a change, or restore what
 // a local restore of the same bytes gives. A download's chunks obey the same rules, carry the
-// world's tick and hash, and restore to it.
+// world's tick and hash, and restore to it. A trajectory that is refused names a field and
+// changes nothing; an accepted one steps the world exactly its ticks, with a sample at each
+// multiple of every_ticks whose hash is the one a local copy of the world has at that tick, and
+// `done` the world after the last.
 #include <grpcpp/grpcpp.h>
 
+#include <algorithm>
 #include <array>
 #include <map>
 #include <memory>
@@ -71,6 +78,7 @@ Harness* start() {
   options.worker_threads = 1;
   options.limits.max_worlds = 8;
   options.limits.max_snapshot_bytes = kMaxSnapshotBytes;
+  options.limits.max_step_ticks = 64;
   Result<std::unique_ptr<server::Server>> started = server::Server::start(options);
   fuzz::check(started.ok(), "the server starts: " + started.status().message());
   h->server = std::move(started).value();
@@ -146,6 +154,66 @@ void check_download(Harness& h, uint64_t world, std::pair<int64_t, uint64_t> sta
   fuzz::check_world(copy, "download");
 }
 
+// StepTrajectory on `world`, a copy of `base` (the same base world): checked against `base`
+// stepped here.
+void check_trajectory(Harness& h, uint64_t world, World base, std::string_view bytes) {
+  v1::StepTrajectoryRequest request;
+  if (!request.ParseFromArray(bytes.data(), static_cast<int>(bytes.size()))) return;
+  if (request.world_id() == 1) request.set_world_id(world);
+  fuzz::print(request);
+  server::Registry& registry = h.server->registry();
+  const auto before = worlds(registry);
+  auto ctx = context();
+  auto reader = h.stub->StepTrajectory(ctx.get(), request);
+  std::vector<v1::TrajectorySample> samples;
+  std::vector<v1::StepReply> done;
+  v1::TrajectoryChunk chunk;
+  while (reader->Read(&chunk)) {
+    for (const v1::TrajectorySample& s : chunk.samples()) samples.push_back(s);
+    if (chunk.has_done()) done.push_back(chunk.done());
+  }
+  const grpc::Status status = reader->Finish();
+  if (std::getenv("FULCRUM_FUZZ_PRINT") != nullptr) {
+    std::fprintf(stderr, "-> %s, %zu samples\n",
+                 status.ok() ? "OK" : status.error_message().c_str(), samples.size());
+  }
+  if (!status.ok()) {
+    // Nothing here stops a trajectory part way (no deadline passes, no contact limit is near),
+    // so a refusal comes before the first tick.
+    fuzz::check(samples.empty() && done.empty(),
+                "trajectory: refused after it ran: " + status.error_message());
+    const std::string& message = status.error_message();
+    fuzz::check(message.rfind("ticks:", 0) == 0 || message.rfind("bodies", 0) == 0 ||
+                    message.rfind("expected_tick:", 0) == 0 || message.rfind("world_id:", 0) == 0,
+                "trajectory: a refusal that names no field: " + message);
+    fuzz::check(worlds(registry) == before, "trajectory: a refusal changed a world: " + message);
+    return;
+  }
+  fuzz::check(request.world_id() == world, "trajectory: accepted for another world");
+  const uint32_t every = request.every_ticks() == 0 ? 1 : request.every_ticks();
+  const size_t bodies =
+      request.bodies().empty() ? static_cast<size_t>(base.body_count()) : request.bodies().size();
+  const size_t expected = request.ticks() / every + (request.include_start() ? 1 : 0);
+  fuzz::check(samples.size() == expected, "trajectory: " + std::to_string(samples.size()) +
+                                              " samples, expected " + std::to_string(expected));
+  size_t next = 0;
+  const int64_t start = base.tick();
+  for (uint32_t t = 0; t <= request.ticks(); ++t) {
+    if (t > 0) base.step();
+    if ((t == 0 && !request.include_start()) || (t > 0 && t % every != 0)) continue;
+    const v1::TrajectorySample& s = samples.at(next++);
+    fuzz::check(s.tick() == start + t && s.state_hash() == base.state_hash() &&
+                    static_cast<size_t>(s.bodies_size()) == bodies,
+                "trajectory: the sample at tick " + std::to_string(start + t) +
+                    " is not the world stepped here");
+  }
+  fuzz::check(done.size() == 1 && done[0].tick() == base.tick() &&
+                  done[0].state_hash() == base.state_hash(),
+              "trajectory: done is not the world after the last tick");
+  fuzz::check(worlds(registry).at(world) == std::make_pair(base.tick(), base.state_hash()),
+              "trajectory: the world is not where done says");
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -157,6 +225,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       registry.create("fuzz", fuzz::base_world(kBases[(setup & 3) % 3]));
   fuzz::check(target.ok(), "the world is created: " + target.status().message());
   const uint64_t world = (*target)->id();
+  size_t pos = 1;
+  if ((setup & 0x40) != 0 && size >= 3) {
+    const size_t length = std::min<size_t>(read_le(data + 1, 2), size - 3);
+    check_trajectory(*h, world, fuzz::base_world(kBases[(setup & 3) % 3]),
+                     fuzz::bytes(data + 3, length));
+    pos = 3 + length;
+  }
   const bool rollback = (setup & 4) != 0;
   const size_t source = ((setup >> 4) & 3) % 3;
   const std::string& payload = h->payloads[source];
@@ -170,7 +245,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   bool last = false;
   uint64_t total = 0, checksum = 0;
   uint64_t running = fnv_continue(0xcbf29ce484222325ull, "");
-  for (size_t pos = 1; pos + 12 <= size; pos += 12) {
+  for (; pos + 12 <= size; pos += 12) {
     const uint8_t* op = data + pos;
     const uint8_t flags = op[0];
     const int64_t offset_delta = static_cast<int16_t>(read_le(op + 1, 2));
@@ -242,6 +317,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
     writer->WritesDone();
     const grpc::Status s = writer->Finish();
+    if (std::getenv("FULCRUM_FUZZ_PRINT") != nullptr) {
+      std::fprintf(stderr, "-> %s (the rules: %s)\n", s.ok() ? "OK" : s.error_message().c_str(),
+                   framing.empty() ? "sound" : framing.c_str());
+    }
     const auto after = worlds(registry);
     if (!s.ok()) {
       const std::string& message = s.error_message();
