@@ -131,6 +131,12 @@ std::vector<BodyId> dynamic_bodies(const World& w) {
   return out;
 }
 
+std::string repeated(const std::string& text, int times) {
+  std::string out;
+  for (int i = 0; i < times; ++i) out += text;
+  return out;
+}
+
 // Session call sequences (sessions_fuzz.cpp): a base world byte, then calls that open a
 // session, join players owning the base world's own bodies and joints, watch as them, send
 // inputs (ticks counted from the world's tick, secrets left empty for the player's own) and
@@ -146,34 +152,37 @@ void session_seeds() {
     const std::string b = handle(bodies[1 % bodies.size()]);
     const std::string fingerprint =
         std::string(" fingerprint: \"") + kDeterminismFingerprint + "\"";
-    write("sessions", "turns",
-          std::string(1, '\0') +
-              call(0, from_text<v1::OpenSessionRequest>(
-                          "world_id: 1 options { max_players: 2 seal: SEAL_RULE_ALL_INPUTS }")
-                          .SerializeAsString()) +
-              call(1, from_text<v1::JoinSessionRequest>("world_id: 1 name: \"a\"" + fingerprint +
-                                                        " bodies " + a)
-                          .SerializeAsString()) +
-              call(1, from_text<v1::JoinSessionRequest>("world_id: 1 name: \"b\" bodies " + b)
-                          .SerializeAsString()) +
-              call(4, from_text<v1::WatchSessionRequest>("world_id: 1 player_id: 1")
-                          .SerializeAsString()) +
-              call(2, from_text<v1::SendInputRequest>(
-                          "world_id: 1 player_id: 1 input { edits { set_velocity { body: " + a +
-                          " linear { x: 2 y: 1 } angular: 1 } } }")
-                          .SerializeAsString()) +
-              call(2, from_text<v1::SendInputRequest>(
-                          "world_id: 1 player_id: 2 input { edits { apply_impulse { body: " + b +
-                          " impulse { x: -3 y: 4 } point { x: 0.1 } angular_impulse: 0.5 } } }")
-                          .SerializeAsString()) +
-              call(2, from_text<v1::SendInputRequest>(
-                          "world_id: 1 player_id: 2 tick: 1 input { edits { apply_torque { body: " +
-                          b + " torque: 5 } } }")
-                          .SerializeAsString()) +
-              call(5, std::string(1, '\0')) +
-              call(2, from_text<v1::SendInputRequest>("world_id: 1 player_id: 1 tick: 1")
-                          .SerializeAsString()) +
-              call(3, from_text<v1::StepRequest>("world_id: 1 ticks: 2").SerializeAsString()));
+    write(
+        "sessions", "turns",
+        std::string(1, '\0') +
+            call(0, from_text<v1::OpenSessionRequest>(
+                        "world_id: 1 options { max_players: 2 seal: SEAL_RULE_ALL_INPUTS }")
+                        .SerializeAsString()) +
+            call(1, from_text<v1::JoinSessionRequest>("world_id: 1 name: \"a\"" + fingerprint +
+                                                      " bodies " + a)
+                        .SerializeAsString()) +
+            call(1, from_text<v1::JoinSessionRequest>("world_id: 1 name: \"b\" bodies " + b)
+                        .SerializeAsString()) +
+            call(1,
+                 from_text<v1::JoinSessionRequest>("world_id: 1 name: \"c\"").SerializeAsString()) +
+            call(4, from_text<v1::WatchSessionRequest>("world_id: 1 player_id: 1")
+                        .SerializeAsString()) +
+            call(2, from_text<v1::SendInputRequest>(
+                        "world_id: 1 player_id: 1 input { edits { set_velocity { body: " + a +
+                        " linear { x: 2 y: 1 } angular: 1 } } }")
+                        .SerializeAsString()) +
+            call(2, from_text<v1::SendInputRequest>(
+                        "world_id: 1 player_id: 2 input { edits { apply_impulse { body: " + b +
+                        " impulse { x: -3 y: 4 } point { x: 0.1 } angular_impulse: 0.5 } } }")
+                        .SerializeAsString()) +
+            call(2, from_text<v1::SendInputRequest>(
+                        "world_id: 1 player_id: 2 tick: 1 input { edits { apply_torque { body: " +
+                        b + " torque: 5 } } }")
+                        .SerializeAsString()) +
+            call(5, std::string(1, '\0')) +
+            call(2, from_text<v1::SendInputRequest>("world_id: 1 player_id: 1 tick: 1")
+                        .SerializeAsString()) +
+            call(3, from_text<v1::StepRequest>("world_id: 1 ticks: 2").SerializeAsString()));
   }
   // On the clock of Step on the bridge: an input delay, the last input repeated, a joint owned,
   // and the owner destroying a player's body with an input for it in flight.
@@ -187,45 +196,63 @@ void session_seeds() {
                               ? std::string("{ index: 0 generation: 1 }")
                               : "{ index: " + std::to_string(joints[0].index) +
                                     " generation: " + std::to_string(joints[0].generation) + " }";
-    write("sessions", "clock",
-          std::string(1, '\2') +
-              call(0, from_text<v1::OpenSessionRequest>(
-                          "world_id: 1 options { input_delay: 2 missing_input: "
-                          "MISSING_INPUT_REPEAT_LAST max_input_lead: 8 }")
-                          .SerializeAsString()) +
-              call(1, from_text<v1::JoinSessionRequest>("world_id: 1 bodies " + a + " bodies " + b +
-                                                        " joints " + j)
-                          .SerializeAsString()) +
-              call(1, from_text<v1::JoinSessionRequest>("world_id: 1 name: \"spectator\"")
-                          .SerializeAsString()) +
-              call(2, from_text<v1::SendInputRequest>(
-                          "world_id: 1 player_id: 1 tick: 2 input { edits { apply_force { body: " +
-                          a + " force { x: 40 y: 0 } } } edits { set_motor { joint: " + j +
-                          " speed: 2 } } }")
-                          .SerializeAsString()) +
-              call(2, from_text<v1::SendInputRequest>(
-                          "world_id: 1 player_id: 1 tick: 3 input { edits { set_joint_target { "
-                          "joint: " +
-                          j + " target { x: 1 y: 2 } } } }")
-                          .SerializeAsString()) +
-              call(3, from_text<v1::StepRequest>("world_id: 1 ticks: 3").SerializeAsString()) +
-              call(2, from_text<v1::SendInputRequest>(
-                          "world_id: 1 player_id: 1 tick: 2 input { edits { set_velocity { body: " +
-                          b + " linear { y: 3 } } } }")
-                          .SerializeAsString()) +
-              call(6, from_text<v1::ApplyEditsRequest>(
-                          "world_id: 1 batch { edits { destroy_body: " + b + " } }")
-                          .SerializeAsString()) +
-              call(3, from_text<v1::StepRequest>("world_id: 1 ticks: 4").SerializeAsString()));
+    write(
+        "sessions", "clock",
+        std::string(1, '\2') +
+            call(0, from_text<v1::OpenSessionRequest>(
+                        "world_id: 1 options { input_delay: 2 missing_input: "
+                        "MISSING_INPUT_REPEAT_LAST max_input_lead: 8 }")
+                        .SerializeAsString()) +
+            call(1, from_text<v1::JoinSessionRequest>("world_id: 1 bodies " + a + " bodies " + b +
+                                                      " joints " + j)
+                        .SerializeAsString()) +
+            call(1,
+                 from_text<v1::JoinSessionRequest>("world_id: 1 bodies " + b).SerializeAsString()) +
+            call(1, from_text<v1::JoinSessionRequest>("world_id: 1 name: \"spectator\"")
+                        .SerializeAsString()) +
+            call(2, from_text<v1::SendInputRequest>("world_id: 1 player_id: 1 tick: 1")
+                        .SerializeAsString()) +
+            call(2, from_text<v1::SendInputRequest>(
+                        "world_id: 1 player_id: 1 tick: 2 input { edits { apply_force { body: " +
+                        a + " force { x: 40 y: 0 } } } edits { set_motor { joint: " + j +
+                        " speed: 2 } } }")
+                        .SerializeAsString()) +
+            call(2, from_text<v1::SendInputRequest>(
+                        "world_id: 1 player_id: 1 tick: 3 input { edits { set_joint_target { "
+                        "joint: " +
+                        j + " target { x: 1 y: 2 } } } }")
+                        .SerializeAsString()) +
+            call(3, from_text<v1::StepRequest>("world_id: 1 ticks: 3").SerializeAsString()) +
+            call(2, from_text<v1::SendInputRequest>(
+                        "world_id: 1 player_id: 1 tick: 2 input { edits { set_velocity { body: " +
+                        b + " linear { y: 3 } } } }")
+                        .SerializeAsString()) +
+            call(6, from_text<v1::ApplyEditsRequest>(
+                        "world_id: 1 batch { edits { destroy_body: " + b + " } }")
+                        .SerializeAsString()) +
+            call(3, from_text<v1::StepRequest>("world_id: 1 ticks: 4").SerializeAsString()));
   }
-  // Refusals: a second world, a wrong secret, another engine's fingerprint, a tick too far.
+  // Refusals: a second world, another engine's fingerprint, a long name, a wrong secret, a tick
+  // sealed and one too far, too many edits; and a duplicate input.
   write(
       "sessions", "refusals",
       std::string(1, '\1') + call(7, std::string(1, '\0')) +
           call(0, from_text<v1::OpenSessionRequest>("world_id: 2").SerializeAsString()) +
           call(1, from_text<v1::JoinSessionRequest>("world_id: 2 fingerprint: \"other\"")
                       .SerializeAsString()) +
+          call(1, from_text<v1::JoinSessionRequest>("world_id: 2 name: \"" + std::string(65, 'n') +
+                                                    "\"")
+                      .SerializeAsString()) +
           call(1, from_text<v1::JoinSessionRequest>("world_id: 2").SerializeAsString()) +
+          call(2, from_text<v1::SendInputRequest>("world_id: 2 player_id: 1 tick: -1")
+                      .SerializeAsString()) +
+          call(2, from_text<v1::SendInputRequest>("world_id: 2 player_id: 1 input { " +
+                                                  repeated("edits { } ", 65) + "}")
+                      .SerializeAsString()) +
+          call(2, from_text<v1::SendInputRequest>("world_id: 2 player_id: 1 tick: 1")
+                      .SerializeAsString()) +
+          call(2, from_text<v1::SendInputRequest>("world_id: 2 player_id: 1 tick: 1")
+                      .SerializeAsString()) +
           call(2, from_text<v1::SendInputRequest>(
                       "world_id: 2 player_id: 1 player_secret: \"\\x05\\x01\"")
                       .SerializeAsString()) +

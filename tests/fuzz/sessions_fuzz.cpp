@@ -156,8 +156,9 @@ void check_names_a_field(const std::string& message, const google::protobuf::Des
       const bool starts = at == 0 || !(std::isalnum(static_cast<unsigned char>(message[at - 1])) ||
                                        message[at - 1] == '_');
       const size_t end = at + field.size();
-      const bool ends = end < message.size() &&
-                        (message[end] == ':' || message[end] == '.' || message[end] == '[');
+      // "tick: ...", "input.edits[0]...", "(options.max_players)"
+      const bool ends = end < message.size() && (message[end] == ':' || message[end] == '.' ||
+                                                 message[end] == '[' || message[end] == ')');
       if (starts && ends) return true;
     }
     return false;
