@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Fuzzing with libFuzzer (docs/fuzzing.md).
 #   tools/fuzz.sh TARGET SECONDS   fuzz one target (scene_json, scene_proto, edits, snapshot,
-#                                  replay, frames, requests) for SECONDS
+#                                  replay, frames, requests, sessions, snapshot_stream) for
+#                                  SECONDS
 #   tools/fuzz.sh --smoke SECONDS  every target for SECONDS, two at a time (CI)
 #   tools/fuzz.sh --list           the targets
 # Builds in build-asan/ (clang, ASan + UBSan, libFuzzer's instrumentation; the directory
@@ -12,11 +13,11 @@
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 
-targets=(scene_json scene_proto edits snapshot replay frames requests)
+targets=(scene_json scene_proto edits snapshot replay frames requests sessions snapshot_stream)
 dir="$FULCRUM_ROOT/build-asan"
 
 usage() {
-  sed -n '2,11p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
+  sed -n '2,12p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
   exit 2
 }
 

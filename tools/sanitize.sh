@@ -71,7 +71,8 @@ unset ASAN_OPTIONS UBSAN_OPTIONS LSAN_OPTIONS
 start=$SECONDS
 smoke=${FULCRUM_FUZZ_SMOKE_SECONDS:-20}
 bash "$FULCRUM_ROOT/tools/fuzz.sh" --smoke "$smoke" || failed=1
-summary+=("fuzz smoke: 7 targets, ${smoke} s each, two at a time: $((SECONDS - start)) s")
+fuzz_targets=$(bash "$FULCRUM_ROOT/tools/fuzz.sh" --list | wc -l)
+summary+=("fuzz smoke: $fuzz_targets targets, ${smoke} s each, two at a time: $((SECONDS - start)) s")
 
 # --- 2. ThreadSanitizer: Fulcrum's own threads, without gRPC ---------------------------------
 # The engine's worker pool and multi-threaded step (and the 2000 random worlds, a fifth of which

@@ -463,7 +463,7 @@ Status Session::open_session(const v1::OpenSessionRequest& request, v1::OpenSess
   FULCRUM_RETURN_IF_ERROR(GameSession::check_options(&options));
   Hold hold(this);
   if (game_) {
-    return failed_precondition("world " + std::to_string(id_) + " is a session already");
+    return failed_precondition("world_id: world " + std::to_string(id_) + " is a session already");
   }
   game_ = std::make_unique<GameSession>(options, world_);
   reply->set_tick(world_.tick());
@@ -480,7 +480,7 @@ Status Session::open_session(const v1::OpenSessionRequest& request, v1::OpenSess
 namespace {
 
 Status not_a_session(uint64_t id) {
-  return failed_precondition("world " + std::to_string(id) +
+  return failed_precondition("world_id: world " + std::to_string(id) +
                              " is not a multiplayer session (OpenSession first)");
 }
 
@@ -682,7 +682,10 @@ GameSession::Sealed Session::seal_inputs_locked() {
     kept.push_back(std::move(b));
   }
   sealed.batches = std::move(kept);
+  // A stand-in (MISSING_INPUT_REPEAT_LAST) the world refused lists its player a second time.
   std::sort(sealed.missing.begin(), sealed.missing.end());
+  sealed.missing.erase(std::unique(sealed.missing.begin(), sealed.missing.end()),
+                       sealed.missing.end());
   return sealed;
 }
 

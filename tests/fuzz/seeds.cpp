@@ -5,15 +5,18 @@
 // and deltas of them, a recorded replay, frames of both kinds, and server call sequences.
 #include <google/protobuf/text_format.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
 
+#include "fulcrum/fingerprint.h"
 #include "fulcrum/scenes.h"
 #include "fulcrum/v1/frames.pb.h"
 #include "fulcrum/v1/service.pb.h"
+#include "fulcrum/v1/session.pb.h"
 #include "fuzz_worlds.h"
 #include "replay.h"
 #include "scene_convert.h"
@@ -117,6 +120,210 @@ std::string with_length(int method, const std::string& bytes) {
   out.push_back(static_cast<char>(bytes.size() & 0xff));
   out.push_back(static_cast<char>((bytes.size() >> 8) & 0xff));
   return out + bytes;
+}
+
+// The dynamic bodies of a world, in index order.
+std::vector<BodyId> dynamic_bodies(const World& w) {
+  std::vector<BodyId> out;
+  for (BodyId id : w.bodies()) {
+    if (w.body_state(id)->type == BodyType::kDynamic) out.push_back(id);
+  }
+  return out;
+}
+
+std::string repeated(const std::string& text, int times) {
+  std::string out;
+  for (int i = 0; i < times; ++i) out += text;
+  return out;
+}
+
+// Session call sequences (sessions_fuzz.cpp): a base world byte, then calls that open a
+// session, join players owning the base world's own bodies and joints, watch as them, send
+// inputs (ticks counted from the world's tick, secrets left empty for the player's own) and
+// step, so that mutations start from live sessions with inputs in flight.
+void session_seeds() {
+  const auto call = [](int method, const std::string& bytes) { return with_length(method, bytes); };
+  // Turn by turn on the mixed world: two players, every input in, so ticks run as they arrive.
+  // (The first byte picks the mixed, bounce or bridge world.)
+  {
+    World w = fuzz::base_world(2);
+    const std::vector<BodyId> bodies = dynamic_bodies(w);
+    const std::string a = handle(bodies[0]);
+    const std::string b = handle(bodies[1 % bodies.size()]);
+    const std::string fingerprint =
+        std::string(" fingerprint: \"") + kDeterminismFingerprint + "\"";
+    write(
+        "sessions", "turns",
+        std::string(1, '\0') +
+            call(0, from_text<v1::OpenSessionRequest>(
+                        "world_id: 1 options { max_players: 2 seal: SEAL_RULE_ALL_INPUTS }")
+                        .SerializeAsString()) +
+            call(1, from_text<v1::JoinSessionRequest>("world_id: 1 name: \"a\"" + fingerprint +
+                                                      " bodies " + a)
+                        .SerializeAsString()) +
+            call(1, from_text<v1::JoinSessionRequest>("world_id: 1 name: \"b\" bodies " + b)
+                        .SerializeAsString()) +
+            call(1,
+                 from_text<v1::JoinSessionRequest>("world_id: 1 name: \"c\"").SerializeAsString()) +
+            call(4, from_text<v1::WatchSessionRequest>("world_id: 1 player_id: 1")
+                        .SerializeAsString()) +
+            call(2, from_text<v1::SendInputRequest>(
+                        "world_id: 1 player_id: 1 input { edits { set_velocity { body: " + a +
+                        " linear { x: 2 y: 1 } angular: 1 } } }")
+                        .SerializeAsString()) +
+            call(2, from_text<v1::SendInputRequest>(
+                        "world_id: 1 player_id: 2 input { edits { apply_impulse { body: " + b +
+                        " impulse { x: -3 y: 4 } point { x: 0.1 } angular_impulse: 0.5 } } }")
+                        .SerializeAsString()) +
+            call(2, from_text<v1::SendInputRequest>(
+                        "world_id: 1 player_id: 2 tick: 1 input { edits { apply_torque { body: " +
+                        b + " torque: 5 } } }")
+                        .SerializeAsString()) +
+            call(5, std::string(1, '\0')) +
+            call(2, from_text<v1::SendInputRequest>("world_id: 1 player_id: 1 tick: 1")
+                        .SerializeAsString()) +
+            call(3, from_text<v1::StepRequest>("world_id: 1 ticks: 2").SerializeAsString()));
+  }
+  // On the clock of Step on the bridge: an input delay, the last input repeated, a joint owned,
+  // and the owner destroying a player's body with an input for it in flight.
+  {
+    World w = fuzz::base_world(0);
+    const std::vector<BodyId> bodies = dynamic_bodies(w);
+    const std::vector<JointId> joints = w.joints();
+    const std::string a = handle(bodies[0]);
+    const std::string b = handle(bodies[1 % bodies.size()]);
+    const std::string j = joints.empty()
+                              ? std::string("{ index: 0 generation: 1 }")
+                              : "{ index: " + std::to_string(joints[0].index) +
+                                    " generation: " + std::to_string(joints[0].generation) + " }";
+    write(
+        "sessions", "clock",
+        std::string(1, '\2') +
+            call(0, from_text<v1::OpenSessionRequest>(
+                        "world_id: 1 options { input_delay: 2 missing_input: "
+                        "MISSING_INPUT_REPEAT_LAST max_input_lead: 8 }")
+                        .SerializeAsString()) +
+            call(1, from_text<v1::JoinSessionRequest>("world_id: 1 bodies " + a + " bodies " + b +
+                                                      " joints " + j)
+                        .SerializeAsString()) +
+            call(1,
+                 from_text<v1::JoinSessionRequest>("world_id: 1 bodies " + b).SerializeAsString()) +
+            call(1, from_text<v1::JoinSessionRequest>("world_id: 1 name: \"spectator\"")
+                        .SerializeAsString()) +
+            call(2, from_text<v1::SendInputRequest>("world_id: 1 player_id: 1 tick: 1")
+                        .SerializeAsString()) +
+            call(2, from_text<v1::SendInputRequest>(
+                        "world_id: 1 player_id: 1 tick: 2 input { edits { apply_force { body: " +
+                        a + " force { x: 40 y: 0 } } } edits { set_motor { joint: " + j +
+                        " speed: 2 } } }")
+                        .SerializeAsString()) +
+            call(2, from_text<v1::SendInputRequest>(
+                        "world_id: 1 player_id: 1 tick: 3 input { edits { set_joint_target { "
+                        "joint: " +
+                        j + " target { x: 1 y: 2 } } } }")
+                        .SerializeAsString()) +
+            call(3, from_text<v1::StepRequest>("world_id: 1 ticks: 3").SerializeAsString()) +
+            call(2, from_text<v1::SendInputRequest>(
+                        "world_id: 1 player_id: 1 tick: 2 input { edits { set_velocity { body: " +
+                        b + " linear { y: 3 } } } }")
+                        .SerializeAsString()) +
+            call(6, from_text<v1::ApplyEditsRequest>(
+                        "world_id: 1 batch { edits { destroy_body: " + b + " } }")
+                        .SerializeAsString()) +
+            call(3, from_text<v1::StepRequest>("world_id: 1 ticks: 4").SerializeAsString()));
+  }
+  // Refusals: a second world, another engine's fingerprint, a long name, a wrong secret, a tick
+  // sealed and one too far, too many edits; and a duplicate input.
+  write(
+      "sessions", "refusals",
+      std::string(1, '\1') + call(7, std::string(1, '\0')) +
+          call(0, from_text<v1::OpenSessionRequest>("world_id: 2").SerializeAsString()) +
+          call(1, from_text<v1::JoinSessionRequest>("world_id: 2 fingerprint: \"other\"")
+                      .SerializeAsString()) +
+          call(1, from_text<v1::JoinSessionRequest>("world_id: 2 name: \"" + std::string(65, 'n') +
+                                                    "\"")
+                      .SerializeAsString()) +
+          call(1, from_text<v1::JoinSessionRequest>("world_id: 2").SerializeAsString()) +
+          call(2, from_text<v1::SendInputRequest>("world_id: 2 player_id: 1 tick: -1")
+                      .SerializeAsString()) +
+          call(2, from_text<v1::SendInputRequest>("world_id: 2 player_id: 1 input { " +
+                                                  repeated("edits { } ", 65) + "}")
+                      .SerializeAsString()) +
+          call(2, from_text<v1::SendInputRequest>("world_id: 2 player_id: 1 tick: 1")
+                      .SerializeAsString()) +
+          call(2, from_text<v1::SendInputRequest>("world_id: 2 player_id: 1 tick: 1")
+                      .SerializeAsString()) +
+          call(2, from_text<v1::SendInputRequest>(
+                      "world_id: 2 player_id: 1 player_secret: \"\\x05\\x01\"")
+                      .SerializeAsString()) +
+          call(2, from_text<v1::SendInputRequest>("world_id: 2 player_id: 1 tick: 100000")
+                      .SerializeAsString()) +
+          call(2, from_text<v1::SendInputRequest>("world_id: 1 player_id: 1").SerializeAsString()) +
+          call(3, from_text<v1::StepRequest>("world_id: 2 ticks: 1").SerializeAsString()));
+}
+
+// One chunk of a snapshot_stream input (snapshot_stream_fuzz.cpp): flags, offset from the bytes
+// sent so far, size, a byte to flip and where, and a value for the fields not set right.
+std::string stream_chunk(uint8_t flags, size_t size, uint32_t value = 0) {
+  std::string out(12, '\0');
+  out[0] = static_cast<char>(flags);
+  out[3] = static_cast<char>(size & 0xff);
+  out[4] = static_cast<char>((size >> 8) & 0xff);
+  for (int i = 0; i < 4; ++i) out[8 + i] = static_cast<char>((value >> (8 * i)) & 0xff);
+  return out;
+}
+
+// Uploads of a base world's snapshot 5 ticks on, as the target makes them: whole and sound
+// (fork and rollback, one chunk or many), with a wrong checksum, and cut short.
+void snapshot_stream_seeds() {
+  constexpr uint8_t kFirst = 1, kLast = 2, kChecksum = 4, kTotal = 8;
+  // Set-up bytes name the bridge, mixed and bounce worlds 0, 1 and 2.
+  for (uint8_t source : {0, 2}) {
+    World w = fuzz::base_world(source == 0 ? 0 : 3);
+    for (int t = 0; t < 5; ++t) w.step();
+    const size_t size = encode_snapshot(w).size();
+    // In pieces of `piece` bytes (at most 65535, the size field's range).
+    auto upload = [&](size_t piece, bool checksum_right, bool to_the_end) {
+      std::string out;
+      for (size_t sent = 0; sent < size; sent += piece) {
+        const size_t n = std::min(piece, size - sent);
+        const bool last = sent + n == size;
+        if (last && !to_the_end) break;
+        uint8_t flags = sent == 0 ? kFirst | kTotal : 0;
+        if (last) flags |= kLast | (checksum_right ? kChecksum : 0);
+        out += stream_chunk(flags, n, 12345);
+      }
+      return out;
+    };
+    const std::string name = source == 0 ? "bridge" : "bounce";
+    const auto setup = [&](uint8_t base, bool rollback, bool download) {
+      return std::string(
+          1, static_cast<char>(base | (rollback ? 4 : 0) | (download ? 8 : 0) | (source << 4)));
+    };
+    write("snapshot_stream", name + "_fork", setup(2, false, false) + upload(60000, true, true));
+    write("snapshot_stream", name + "_rollback",
+          setup(source == 0 ? 1 : 0, true, true) + upload(4096, true, true));
+    write("snapshot_stream", name + "_bad_checksum",
+          setup(1, true, false) + upload(8192, false, true));
+    write("snapshot_stream", name + "_cut_short",
+          setup(2, false, false) + upload(size / 4 + 1, true, false));
+    // A StepTrajectory on the mixed world first (set-up bit 6), sampling two bodies every 3
+    // ticks, or every body every tick; then the upload.
+    World mixed = fuzz::base_world(2);
+    const std::vector<BodyId> bodies = dynamic_bodies(mixed);
+    const std::string trajectory =
+        source == 0
+            ? from_text<v1::StepTrajectoryRequest>(
+                  "world_id: 1 ticks: 10 every_ticks: 3 include_start: true bodies " +
+                  handle(bodies[0]) + " bodies " + handle(bodies[1]))
+                  .SerializeAsString()
+            : from_text<v1::StepTrajectoryRequest>("world_id: 1 ticks: 4").SerializeAsString();
+    write("snapshot_stream", name + "_after_trajectory",
+          std::string(1, static_cast<char>(0x40 | 1 | (source << 4))) +
+              static_cast<char>(trajectory.size() & 0xff) +
+              static_cast<char>((trajectory.size() >> 8) & 0xff) + trajectory +
+              upload(60000, true, true));
+  }
 }
 
 }  // namespace
@@ -237,6 +444,8 @@ int main(int argc, char** argv) {
               with_length(5, from_text<v1::StepRequest>("world_id: 1 ticks: 2 expected_tick: 40")
                                  .SerializeAsString()));
   }
+  session_seeds();
+  snapshot_stream_seeds();
   std::printf("seeds written to %s\n", out_dir.c_str());
   return 0;
 }
