@@ -81,6 +81,9 @@ class Watcher final : public server::SessionWatcher {
     events.push_back(std::move(event));
   }
   void close(const Status& status) override { closed = "closed: " + status.message(); }
+  uint32_t player_id() const override { return player; }
+
+  uint32_t player = 0;  // as whom it watches (0: a spectator)
 
   std::deque<std::shared_ptr<const v1::SessionEvent>> events;
   std::string closed;  // only deleting the world ends a watch, and no call here deletes one
@@ -445,6 +448,7 @@ grpc::Status run_call(Harness& h, int method, std::string_view bytes,
       Result<std::shared_ptr<server::Session>> session = h.registry.find(request.world_id());
       if (!session.ok()) return server::to_grpc_status(session.status());
       auto watcher = std::make_shared<Watcher>();
+      watcher->player = request.player_id();
       Status s = (*session)->watch_session(watcher, request.player_id(), request.player_secret());
       if (!s.ok()) {
         fuzz::check(watcher->events.empty(), "WatchSession: a refused watch got an event");

@@ -40,6 +40,7 @@ class Events final : public SessionWatcher {
     if (event->has_confirmed()) confirmed.push_back(event->confirmed());
   }
   void close(const Status&) override {}
+  uint32_t player_id() const override { return 0; }  // a spectator
   std::deque<v1::ConfirmedTick> confirmed;
 };
 
