@@ -15,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "fuzz_server.h"
 #include "fuzz_support.h"
 #include "physics_service.h"
 #include "session.h"
@@ -44,17 +45,6 @@ struct Service {
   Registry registry{fuzz_server_limits()};
   PhysicsService service{&registry, ""};
 };
-
-// Every world's id, tick and hash.
-std::map<uint64_t, std::pair<int64_t, uint64_t>> worlds(Registry& registry) {
-  std::map<uint64_t, std::pair<int64_t, uint64_t>> out;
-  for (const auto& session : registry.list()) {
-    v1::WorldInfo info;
-    session->info(&info);
-    out[session->id()] = {info.tick(), info.state_hash()};
-  }
-  return out;
-}
 
 // Points a small world_id at a world this input created.
 void map_world_id(google::protobuf::Message* request, const std::vector<uint64_t>& created) {
@@ -104,7 +94,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const size_t len = std::min<size_t>(data[pos + 1] | (data[pos + 2] << 8), size - pos - 3);
     const std::string_view bytes = fuzz::bytes(data + pos + 3, len);
     pos += 3 + len;
-    const auto before = worlds(s->registry);
+    const auto before = fuzz::worlds(s->registry);
     grpc::Status status;
     switch (method) {
       case 0: {
@@ -168,7 +158,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
     if (!status.ok()) {
       fuzz::check(!status.error_message().empty(), "a refusal without a message");
-      fuzz::check(worlds(s->registry) == before,
+      fuzz::check(fuzz::worlds(s->registry) == before,
                   "a refused call changed a world: " + status.error_message());
     }
     check_worlds(s->registry);

@@ -43,6 +43,7 @@
 #include <vector>
 
 #include "fulcrum/fingerprint.h"
+#include "fuzz_server.h"
 #include "fuzz_support.h"
 #include "fuzz_worlds.h"
 #include "physics_service.h"
@@ -122,17 +123,6 @@ struct Harness {
   std::map<uint64_t, WorldModel> models;
   std::vector<OpenWatch> watches;
 };
-
-// Every world's id, tick and hash.
-std::map<uint64_t, std::pair<int64_t, uint64_t>> worlds(Registry& registry) {
-  std::map<uint64_t, std::pair<int64_t, uint64_t>> out;
-  for (const auto& session : registry.list()) {
-    v1::WorldInfo info;
-    session->info(&info);
-    out[session->id()] = {info.tick(), info.state_hash()};
-  }
-  return out;
-}
 
 uint64_t map_world(uint64_t id, const std::vector<uint64_t>& created) {
   if (id >= 1 && id <= 16 && !created.empty()) return created[(id - 1) % created.size()];
@@ -501,10 +491,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const size_t len = std::min<size_t>(data[pos + 1] | (data[pos + 2] << 8), size - pos - 3);
     const std::string_view bytes = fuzz::bytes(data + pos + 3, len);
     pos += 3 + len;
-    const auto before = worlds(h->registry);
+    const auto before = fuzz::worlds(h->registry);
     const google::protobuf::Descriptor* request_type = nullptr;
     const grpc::Status status = run_call(*h, method, bytes, before, &request_type);
-    const auto after = worlds(h->registry);
+    const auto after = fuzz::worlds(h->registry);
     if (std::getenv("FULCRUM_FUZZ_PRINT") != nullptr) {
       std::fprintf(stderr, "-> %s\n", status.ok() ? "OK" : status.error_message().c_str());
     }

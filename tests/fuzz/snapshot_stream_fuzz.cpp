@@ -39,6 +39,7 @@
 #include <vector>
 
 #include "fulcrum/v1/service.grpc.pb.h"
+#include "fuzz_server.h"
 #include "fuzz_support.h"
 #include "fuzz_worlds.h"
 #include "server.h"
@@ -91,16 +92,6 @@ Harness* start() {
     h->payload_states[i] = {w.tick(), w.state_hash()};
   }
   return h;
-}
-
-std::map<uint64_t, std::pair<int64_t, uint64_t>> worlds(server::Registry& registry) {
-  std::map<uint64_t, std::pair<int64_t, uint64_t>> out;
-  for (const auto& session : registry.list()) {
-    v1::WorldInfo info;
-    session->info(&info);
-    out[session->id()] = {info.tick(), info.state_hash()};
-  }
-  return out;
 }
 
 uint64_t read_le(const uint8_t* p, int bytes) {
@@ -162,7 +153,7 @@ void check_trajectory(Harness& h, uint64_t world, World base, std::string_view b
   if (request.world_id() == 1) request.set_world_id(world);
   fuzz::print(request);
   server::Registry& registry = h.server->registry();
-  const auto before = worlds(registry);
+  const auto before = fuzz::worlds(registry);
   auto ctx = context();
   auto reader = h.stub->StepTrajectory(ctx.get(), request);
   std::vector<v1::TrajectorySample> samples;
@@ -186,7 +177,8 @@ void check_trajectory(Harness& h, uint64_t world, World base, std::string_view b
     fuzz::check(message.rfind("ticks:", 0) == 0 || message.rfind("bodies", 0) == 0 ||
                     message.rfind("expected_tick:", 0) == 0 || message.rfind("world_id:", 0) == 0,
                 "trajectory: a refusal that names no field: " + message);
-    fuzz::check(worlds(registry) == before, "trajectory: a refusal changed a world: " + message);
+    fuzz::check(fuzz::worlds(registry) == before,
+                "trajectory: a refusal changed a world: " + message);
     return;
   }
   fuzz::check(request.world_id() == world, "trajectory: accepted for another world");
@@ -210,7 +202,7 @@ void check_trajectory(Harness& h, uint64_t world, World base, std::string_view b
   fuzz::check(done.size() == 1 && done[0].tick() == base.tick() &&
                   done[0].state_hash() == base.state_hash(),
               "trajectory: done is not the world after the last tick");
-  fuzz::check(worlds(registry).at(world) == std::make_pair(base.tick(), base.state_hash()),
+  fuzz::check(fuzz::worlds(registry).at(world) == std::make_pair(base.tick(), base.state_hash()),
               "trajectory: the world is not where done says");
 }
 
@@ -235,7 +227,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const bool rollback = (setup & 4) != 0;
   const size_t source = ((setup >> 4) & 3) % 3;
   const std::string& payload = h->payloads[source];
-  const auto before = worlds(registry);
+  const auto before = fuzz::worlds(registry);
   if ((setup & 8) != 0) check_download(*h, world, before.at(world));
 
   // The upload, and the framing rules' verdict on it.
@@ -321,7 +313,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       std::fprintf(stderr, "-> %s (the rules: %s)\n", s.ok() ? "OK" : s.error_message().c_str(),
                    framing.empty() ? "sound" : framing.c_str());
     }
-    const auto after = worlds(registry);
+    const auto after = fuzz::worlds(registry);
     if (!s.ok()) {
       const std::string& message = s.error_message();
       fuzz::check(message.rfind("chunks", 0) == 0 || message.rfind("snapshot", 0) == 0 ||

@@ -24,6 +24,7 @@
 #include "fulcrum/v1/service.grpc.pb.h"
 #include "scene_convert.h"
 #include "server.h"
+#include "session_support.h"
 #include "snapshot_convert.h"
 #include "test_support.h"
 
@@ -35,26 +36,11 @@ using client::LockstepOptions;
 using client::LockstepWorld;
 using server::Server;
 using server::ServerOptions;
+using testing_support::handle;
+using testing_support::impulse;
+using testing_support::kBelow;
+using testing_support::kTop;
 using testing_support::pyramid_json;
-
-// The pyramid's top two boxes (scene bodies 210 and 209), one per player.
-constexpr int kTop = 210;
-constexpr int kBelow = 209;
-
-v1::Handle handle(int index, uint32_t generation = 1) {
-  v1::Handle h;
-  h.set_index(index);
-  h.set_generation(generation);
-  return h;
-}
-
-v1::EditBatch impulse(int body, double x) {
-  v1::EditBatch batch;
-  v1::ApplyImpulse* push = batch.add_edits()->mutable_apply_impulse();
-  *push->mutable_body() = handle(body);
-  push->mutable_impulse()->set_x(x);
-  return batch;
-}
 
 class DesyncTest : public ::testing::Test {
  protected:

@@ -17,6 +17,7 @@
 #include "replay.h"
 #include "scene_convert.h"
 #include "server.h"
+#include "session_support.h"
 #include "snapshot_convert.h"
 #include "test_support.h"
 
@@ -26,26 +27,11 @@ namespace {
 using namespace std::chrono_literals;
 using server::Server;
 using server::ServerOptions;
+using testing_support::handle;
+using testing_support::impulse;
+using testing_support::kBelow;
+using testing_support::kTop;
 using testing_support::pyramid_json;
-
-// The pyramid's top two boxes (scene bodies 210 and 209), one per player.
-constexpr int kTop = 210;
-constexpr int kBelow = 209;
-
-v1::Handle handle(int index, uint32_t generation = 1) {
-  v1::Handle h;
-  h.set_index(index);
-  h.set_generation(generation);
-  return h;
-}
-
-v1::EditBatch impulse(int body, double x) {
-  v1::EditBatch batch;
-  v1::ApplyImpulse* push = batch.add_edits()->mutable_apply_impulse();
-  *push->mutable_body() = handle(body);
-  push->mutable_impulse()->set_x(x);
-  return batch;
-}
 
 // A client's own copy of the world, stepped only by what the session stream confirms.
 class Follower {
