@@ -434,7 +434,11 @@ TEST_F(RollbackTest, TwoPlayersOnTheServersClock) {
     SCOPED_TRACE("player " + std::to_string(i + 1));
     const client::RollbackCounters& n = p.world->counters();
     EXPECT_EQ(n.ticks_confirmed, server->tick);
-    EXPECT_EQ(n.ticks_advanced, kPlayed - kDelay);
+    // Each tick from kDelay to kPlayed - 1 was played by this loop, or, where the loop fell
+    // behind the clock (a slow build, a loaded machine), reached by catching up with the
+    // confirmed world; catch-ups after the loop ended (the clock still ran) only add.
+    EXPECT_LE(n.ticks_advanced, kPlayed - kDelay);
+    EXPECT_GE(n.ticks_advanced + n.caught_up, kPlayed - kDelay);
     EXPECT_EQ(n.predictions_held + n.rollbacks + n.caught_up, n.ticks_confirmed);
     EXPECT_GT(n.rollbacks, 0);
     EXPECT_LT(p.late, n.ticks_advanced) << "some inputs arrived in time";
