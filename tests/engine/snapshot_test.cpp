@@ -53,7 +53,7 @@ TEST_P(SnapshotRoundTrip, CopiedWorldContinuesBitForBit) {
   EXPECT_EQ(copy.state_hash(), original.state_hash());
   EXPECT_EQ(copy.tick(), original.tick());
   EXPECT_EQ(copy.threads(), 2);
-  EXPECT_EQ(first_divergence(original, copy, 300), -1);
+  EXPECT_EQ(first_divergence(original, copy, 120), -1);
   // Independent: a kick to the copy leaves the original on a third world's path.
   World witness;
   witness.copy_state(original);

@@ -10,7 +10,7 @@
 // Turn by turn (SEAL_RULE_ALL_INPUTS): the server seals a tick as soon as the four inputs for
 // it are in, so the run is as fast as the relays and the two cores allow, and the world's
 // every tick, and so its final hash, depends on the seeds only. The tick count is kDefaultTicks
-// in CI (about a minute); FULCRUM_RELAY_TICKS=10000 runs the full length by hand.
+// in CI (about 25 s); FULCRUM_RELAY_TICKS=10000 runs the full length by hand.
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
@@ -52,7 +52,7 @@ constexpr auto kMaxDelay = 150ms;                          // each way, per chun
 // Ticks a player plays past its confirmed world: the inputs in flight. Through the relays a
 // round trip is up to 300 ms, so this bounds the rate at about kLead / 0.3 s ticks.
 constexpr int64_t kLead = 24;
-constexpr int64_t kDefaultTicks = 3600;  // a minute of play at 60 Hz
+constexpr int64_t kDefaultTicks = 1800;  // half a minute of play at 60 Hz
 constexpr int64_t kQuietTicks = 120;     // the inputs are empty for the last ticks
 
 // FULCRUM_RELAY_TICKS, or kDefaultTicks.
