@@ -168,7 +168,6 @@ void write_lane(const SolverScratch& s, const ContactRow& row, ContactBlock* b, 
     q->ray[l] = p.ray;
     q->rbx[l] = p.rbx;
     q->rby[l] = p.rby;
-    q->separation[l] = 0.0;  // colour_contacts computes it once the lane is written
     q->base_separation[l] = p.base_separation;
     q->normal_mass[l] = p.normal_mass;
     q->tangent_mass[l] = p.tangent_mass;

@@ -318,8 +318,8 @@ double solve_blocks_as(ContactBlock* blocks, int first, int end, SolverBody* bod
   using L = Lane<V>;
   V largest = L::splat(0.0);
   for (int k = first; k < end; ++k) {
-    // The next block's body slots, and its bodies' velocity rows, are the first things the
-    // next iteration needs; fetch them while this block is solved.
+    // Fetch ahead while this block is solved: the block three on (a pass streams more
+    // blocks than the cache holds), and the next block's bodies' velocity rows.
     if (k + 3 < end) {
       const char* far = reinterpret_cast<const char*>(&blocks[k + 3]);
       for (size_t line = 0; line < sizeof(ContactBlock); line += 64) {
