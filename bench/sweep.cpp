@@ -7,7 +7,7 @@
 //
 //   build/bin/fulcrum_sweep                          # the full grid, into docs/sweep
 //   build/bin/fulcrum_sweep --cases vertical_stack,10 --repeats 5 --out /tmp/sweep
-//   build/bin/fulcrum_sweep --smoke --out /tmp/smoke # CI: 3 settings, 20 ticks, a few seconds
+//   build/bin/fulcrum_sweep --smoke --out /tmp/smoke # CI: 4 settings, 20 ticks, a few seconds
 //
 // Outputs in --out: sweep.csv (one row per case and setting), sweep.md (a table per case, the
 // cheapest passing setting and the Pareto front marked) and one SVG per case (ms per step
@@ -80,30 +80,34 @@ using namespace fulcrum::bench;  // NOLINT(google-build-using-namespace)
 
 // --- The settings grid ------------------------------------------------------------------------
 
-enum class Family { kSoft, kClassic, kClassicSplit, kSoftSubsteps };
-constexpr int kFamilyCount = 4;
-const char* const kFamilyNames[kFamilyCount] = {"soft", "classic", "classic_split",
-                                                "soft_substeps"};
+// Every setting but `adaptive` runs with budgets off (max_substeps = substeps), so that it
+// means what its label says; `adaptive` is the default: soft 4x2 with per-island budgets.
+enum class Family { kSoft, kClassic, kClassicSplit, kSoftSubsteps, kAdaptive };
+constexpr int kFamilyCount = 5;
+const char* const kFamilyNames[kFamilyCount] = {"soft", "classic", "classic_split", "soft_substeps",
+                                                "adaptive"};
 const char* const kFamilyLegend[kFamilyCount] = {"soft, 4 substeps", "classic", "classic + split",
-                                                 "soft, 2 iterations"};
+                                                 "soft, 2 iterations", "adaptive (default)"};
 
 struct Setting {
   Family family = Family::kSoft;
   int substeps = 4;
   int iterations = 2;
 
-  bool soft() const { return family == Family::kSoft || family == Family::kSoftSubsteps; }
-  // "soft 4x2" (substeps x iterations), "classic 8", "split 8".
+  bool soft() const { return family != Family::kClassic && family != Family::kClassicSplit; }
+  // "soft 4x2" (substeps x iterations), "classic 8", "split 8", "adaptive".
   std::string label() const {
+    if (family == Family::kAdaptive) return "adaptive";
     if (soft()) return "soft " + std::to_string(substeps) + "x" + std::to_string(iterations);
     return (family == Family::kClassic ? "classic " : "split ") + std::to_string(iterations);
   }
   // The short label on the plots: "4x2", "c8", "s8".
   std::string short_label() const {
+    if (family == Family::kAdaptive) return "ad";
     if (soft()) return std::to_string(substeps) + "x" + std::to_string(iterations);
     return (family == Family::kClassic ? "c" : "s") + std::to_string(iterations);
   }
-  bool is_default() const { return soft() && substeps == 4 && iterations == 2; }
+  bool is_default() const { return family == Family::kAdaptive; }
   // Passes over all rows per tick: velocity and relax passes per substep, plus the 3 default
   // pseudo-velocity passes with split impulses. The tie-break when timings are within noise.
   int passes() const {
@@ -114,6 +118,7 @@ struct Setting {
   void apply(WorldSettings* s) const {
     s->substeps = substeps;
     s->velocity_iterations = iterations;
+    if (family != Family::kAdaptive) s->max_substeps = substeps;
     if (soft()) {
       s->relax_iterations = 1;
       s->split_impulses = false;
@@ -132,11 +137,15 @@ std::vector<Setting> full_grid() {
   }
   // Substeps 1, 2, 4, 8 at 2 iterations; 4 x 2 is the soft row above (the default).
   for (int sub : {1, 2, 8}) grid.push_back({Family::kSoftSubsteps, sub, 2});
+  grid.push_back({Family::kAdaptive, 4, 2});
   return grid;
 }
 
 std::vector<Setting> smoke_grid() {
-  return {{Family::kSoft, 4, 2}, {Family::kClassic, 1, 4}, {Family::kClassicSplit, 1, 4}};
+  return {{Family::kAdaptive, 4, 2},
+          {Family::kSoft, 4, 2},
+          {Family::kClassic, 1, 4},
+          {Family::kClassicSplit, 1, 4}};
 }
 
 // --- Error measures ---------------------------------------------------------------------------
@@ -475,6 +484,7 @@ struct Row {
   const Case* c = nullptr;
   Setting setting;
   int ticks = 0, timed_steps = 0, repeats = 0;
+  int most_substeps = 0;  // the most substeps any island ran in the run (budgets)
   double ms_per_step = 0.0;
   Measures m;
   uint64_t hash = 0;
@@ -542,6 +552,7 @@ Row run(const Case& c, const Setting& setting, int repeats, bool smoke) {
       }
       speed = std::max(speed, wm.max_speed);
       joint = std::max(joint, wm.max_joint_error);
+      row.most_substeps = std::max(row.most_substeps, wm.max_substeps);
       probe->after_tick(WorldView(b, scene, wm, row.ticks));
     }
     times.push_back(timed / std::max(1, timing_ticks - 1));
@@ -602,7 +613,8 @@ void mark(std::vector<Row*>& rows) {
 
 const char* const kCsvHeader =
     "case_id,case,setting,family,substeps,velocity_iterations,relax_iterations,contact_hertz,"
-    "split_impulses,ticks,timed_steps,repeats,ms_per_step,max_penetration_m,mean_penetration_m,"
+    "split_impulses,most_substeps,ticks,timed_steps,repeats,ms_per_step,max_penetration_m,mean_"
+    "penetration_m,"
     "max_displacement_m,bodies_out,max_joint_error_m,max_stretch,max_limit_error_rad,"
     "energy_drift,max_speed_m_s,analytic_error,ref_velocity_error_m_s,ref_angular_error_rad_s,"
     "main_error,pass,pareto,cheapest_pass,failed,"
@@ -620,9 +632,9 @@ std::string csv_row(const Row& r) {
                     kFamilyNames[static_cast<int>(r.setting.family)] + "," +
                     std::to_string(s.substeps) + "," + std::to_string(s.velocity_iterations) + "," +
                     std::to_string(s.relax_iterations) + "," + num(s.contact_hertz) + "," +
-                    (s.split_impulses ? "1" : "0") + "," + std::to_string(r.ticks) + "," +
-                    std::to_string(r.timed_steps) + "," + std::to_string(r.repeats) + "," +
-                    num(r.ms_per_step, 4);
+                    (s.split_impulses ? "1" : "0") + "," + std::to_string(r.most_substeps) + "," +
+                    std::to_string(r.ticks) + "," + std::to_string(r.timed_steps) + "," +
+                    std::to_string(r.repeats) + "," + num(r.ms_per_step, 4);
   for (int k = 0; k < kMeasureCount; ++k) {
     out += ",";
     if (r.m.value[k]) out += num(*r.m.value[k], 4);
@@ -663,7 +675,7 @@ std::string plot(const Case& c, const std::vector<Row*>& rows) {
   p.ring_label = "cheapest pass";
   p.note =
       "labels: SxI = soft, S substeps x I iterations; cN = classic, sN = classic + split, "
-      "N iterations";
+      "N iterations; ad = adaptive (the default)";
   return fulcrum::bench::to_svg(p);
 }
 
@@ -697,9 +709,11 @@ std::string markdown(const std::vector<Case>& cases, const std::vector<Row>& row
        "(`tests/engine/*cases*_test.cpp`); *pass* is the HARD_CASES criterion. Settings: "
        "`soft SxI` = S substeps, I velocity iterations, 1 relax pass, soft contacts; "
        "`classic I` = 1 substep, I iterations, no relax, contact_hertz 0 (rigid Baumgarte); "
-       "`split I` = the same with split impulses. The default is `soft 4x2`. "
+       "`split I` = the same with split impulses; these run with budgets off (`max_substeps` = "
+       "substeps). The default is `adaptive`: soft 4x2 with per-island budgets (an island whose "
+       "joints need it runs more substeps; docs/solver.md, Budgets). "
        "Every other setting is the scene's own (no per-test pinned settings).\n\n";
-  o << "## Summary\n\n| # | case | ticks | cheapest passing setting | ms/step | default (soft 4x2) "
+  o << "## Summary\n\n| # | case | ticks | cheapest passing setting | ms/step | default (adaptive) "
        "| default fails on |\n|---|---|---|---|---|---|---|\n";
   for (const Case& c : cases) {
     const Row *cheapest = nullptr, *def = nullptr;
@@ -730,8 +744,15 @@ std::string markdown(const std::vector<Case>& cases, const std::vector<Row>& row
     o << "---|---|\n";
     for (const Row& r : rows) {
       if (r.c != &c) continue;
-      o << "| " << r.setting.label() << (r.setting.is_default() ? " (default)" : "") << " | "
-        << num(r.ms_per_step) << " |";
+      o << "| " << r.setting.label();
+      if (r.setting.is_default()) {
+        o << " (default"
+          << (r.most_substeps > r.setting.substeps
+                  ? "; up to " + std::to_string(r.most_substeps) + " substeps"
+                  : std::string())
+          << ")";
+      }
+      o << " | " << num(r.ms_per_step) << " |";
       for (const auto& l : c.labels) o << " " << md_cell(r, l.first) << " |";
       o << " " << (r.m.pass() ? "pass" : "fail") << " | ";
       std::string notes;

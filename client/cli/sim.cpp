@@ -64,10 +64,12 @@ struct RunFigures {
   // times weight under the usual downward gravity. Drift is E - E0, E0 before the first step.
   double initial_energy = 0.0;
   double final_energy = 0.0;
-  Peak energy_gain;  // largest E - E0
-  Peak energy_loss;  // largest E0 - E
-  StepTime awake;    // ticks that started with at least one body awake
-  StepTime asleep;   // ticks that started with every body asleep
+  Peak energy_gain;     // largest E - E0
+  Peak energy_loss;     // largest E0 - E
+  StepTime awake;       // ticks that started with at least one body awake
+  StepTime asleep;      // ticks that started with every body asleep
+  Peak budget_islands;  // islands given more substeps than the world's
+  int max_substeps = 0;
 
   void start(const WorldMetrics& m, double dt) {
     first_tick = m.tick;
@@ -82,6 +84,8 @@ struct RunFigures {
       penetration_after_first_second.offer(m.max_penetration, m.tick);
     }
     joint_error.offer(m.max_joint_error, m.tick);
+    budget_islands.offer(m.budget_islands, m.tick);
+    max_substeps = std::max(max_substeps, m.max_substeps);
     speed.offer(m.max_speed, m.tick);
     final_energy = m.kinetic_energy + m.potential_energy;
     energy_gain.offer(final_energy - initial_energy, m.tick);
@@ -96,6 +100,7 @@ struct SimReport {
   double wall_ms = 0.0;
   WorldMetrics metrics;
   int joint_count = 0;
+  int substeps = 0;  // the world's setting
   RunFigures run;
 
   double ms_per_step() const { return ticks > 0 ? wall_ms / static_cast<double>(ticks) : 0.0; }
@@ -127,7 +132,9 @@ void print_text(const SimReport& r, std::ostream& out) {
       << " kg m^2/s\n"
       << "max speed:    " << num(m.max_speed) << " m/s\n"
       << "awake bodies: " << m.awake_body_count << "\n"
-      << "contacts:     " << m.contact_count << "\n";
+      << "contacts:     " << m.contact_count << "\n"
+      << "budgets:      " << m.budget_islands << " islands above " << r.substeps
+      << " substeps, up to " << m.max_substeps << "\n";
   if (r.ticks == 0) return;
   out << "largest over the run (ticks " << run.first_tick + 1 << " to " << m.tick
       << ", measured after each step):\n"
@@ -137,6 +144,8 @@ void print_text(const SimReport& r, std::ostream& out) {
       << (r.joint_count == 0 ? std::string("none (no joints)") : at_tick(run.joint_error, " m"))
       << "\n"
       << "  speed:        " << at_tick(run.speed, " m/s") << "\n"
+      << "  budgets:      " << at_tick(run.budget_islands, " islands") << " above " << r.substeps
+      << " substeps; up to " << run.max_substeps << " substeps\n"
       << "  energy drift: gain " << at_tick(run.energy_gain, " J") << ", loss "
       << at_tick(run.energy_loss, " J") << "; at the end "
       << num(run.final_energy - run.initial_energy) << " J\n"
@@ -177,6 +186,8 @@ void print_json(const SimReport& r, std::ostream& out) {
   w.field("maxSpeed", m.max_speed);
   w.field("awakeBodyCount", m.awake_body_count);
   w.field("contactCount", m.contact_count);
+  w.field("budgetIslands", m.budget_islands);
+  w.field("maxSubsteps", m.max_substeps);
   w.field("jointCount", r.joint_count);
   // Over the run: the largest of each figure after every step, with its tick (null: never
   // above 0).
@@ -187,6 +198,8 @@ void print_json(const SimReport& r, std::ostream& out) {
   peak_fields(w, "maxPenetrationAfterFirstSecond", run.penetration_after_first_second);
   peak_fields(w, "maxJointError", run.joint_error);
   peak_fields(w, "maxSpeed", run.speed);
+  peak_fields(w, "maxBudgetIslands", run.budget_islands);
+  w.field("maxSubsteps", run.max_substeps);
   w.field("initialEnergy", run.initial_energy);
   w.field("finalEnergy", run.final_energy);
   peak_fields(w, "maxEnergyGain", run.energy_gain);
@@ -270,6 +283,7 @@ int run_sim(const Invocation& inv) {
   report.scene = loaded.label;
   report.ticks = *ticks;
   report.joint_count = static_cast<int>(world->joints().size());
+  report.substeps = world->settings().substeps;
   WorldMetrics metrics = world->metrics();
   report.run.start(metrics, world->settings().dt);
   // Only World::step() is timed: building the world and measuring it are not part of the

@@ -83,7 +83,7 @@ inline double current_separation(const SolverBody& a, const SolverBody& b, const
 // Gathers the awake, touching, solid contacts in id order.
 void gather_contacts(WorldImpl& w, const std::vector<int>& awake, std::vector<int>* out) {
   out->clear();
-  if (2 * awake.size() >= static_cast<size_t>(w.body_count)) {
+  if (!w.budget.grouped && 2 * awake.size() >= static_cast<size_t>(w.body_count)) {
     // Most bodies awake: one pass over the pool finds the same contacts, already in id order.
     for (size_t ci = 0; ci < w.contacts.size(); ++ci) {
       const Contact& c = w.contacts[ci];
@@ -643,7 +643,7 @@ void finalize_bodies(WorldImpl& w, const std::vector<int>& awake, SolverScratch&
 
 }  // namespace
 
-void WorldImpl::solve(const std::vector<int>& awake) {
+void WorldImpl::solve_group(const std::vector<int>& awake) {
   SolverScratch& s = solver_scratch;
   const WorldSettings& set = settings;
   const double h = set.dt / set.substeps;

@@ -93,12 +93,20 @@ std::vector<ShapeId> World::overlap_point(const Vec2& point, const QueryFilter& 
   return sorted_ids(w, std::move(found));
 }
 
+World::Budgets World::budgets() const {
+  const WorldImpl& w = *impl_;
+  return Budgets{w.budget.islands, std::max(w.budget.max_substeps, w.settings.substeps)};
+}
+
 WorldMetrics World::metrics() const {
   const WorldImpl& w = *impl_;
   WorldMetrics m;
   m.tick = w.tick;
   m.body_count = w.body_count;
   m.awake_body_count = static_cast<int>(w.awake_bodies.size());
+  const Budgets budget = budgets();
+  m.budget_islands = budget.islands;
+  m.max_substeps = budget.max_substeps;
   double penetration_sum = 0.0;
   int penetrating = 0;
   for (const Contact& c : w.contacts) {

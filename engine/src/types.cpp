@@ -37,6 +37,12 @@ Status validate_settings(const WorldSettings& s) {
   FULCRUM_RETURN_IF_ERROR(check_in_range("settings.joint_hertz", s.joint_hertz, 0.0, 1e6));
   FULCRUM_RETURN_IF_ERROR(
       check_in_range("settings.joint_damping_ratio", s.joint_damping_ratio, 0.0, 1e6));
+  if (s.max_substeps < 1 || s.max_substeps > 1000) {
+    return invalid_argument("settings.max_substeps: must be in [1, 1000] (got " +
+                            std::to_string(s.max_substeps) + ")");
+  }
+  FULCRUM_RETURN_IF_ERROR(
+      check_above("settings.joint_give_tolerance", s.joint_give_tolerance, 0.0));
   if (s.velocity_iterations < 1 || s.velocity_iterations > 1000) {
     return invalid_argument("settings.velocity_iterations: must be in [1, 1000] (got " +
                             std::to_string(s.velocity_iterations) + ")");

@@ -138,6 +138,12 @@ class WorldImpl {
 
   // --- solver (contact_solver.cpp) ---
   void solve(const std::vector<int>& awake_sorted);
+  // One group's solve (all awake bodies, or one budget group: islands of one substep count,
+  // run with settings.substeps and joint_hertz set for it).
+  void solve_group(const std::vector<int>& bodies_sorted);
+  // Splits the awake bodies into budget groups (budget.cpp); false when all keep the
+  // world's substeps.
+  bool plan_budgets(const std::vector<int>& awake_sorted);
   // The reference solver's start of a tick (reference.cpp): what World::step does before its
   // first velocity pass, with one substep of dt: broad phase, collision, the awake set in id
   // order (scratch_awake), solver bodies with the applied forces integrated, contact and joint
@@ -150,6 +156,18 @@ class WorldImpl {
   std::vector<uint8_t> scratch_overlap;  // collide: whether each contact's boxes still overlap
   std::vector<int> scratch_awake;
   SolverScratch solver_scratch;
+  struct BudgetGroup {
+    int substeps = 0;
+    std::vector<int> bodies;  // in id order
+  };
+  struct Budget {
+    int islands = 0;       // islands given more substeps than the world's, this tick
+    int max_substeps = 0;  // the most substeps any island ran this tick
+    bool grouped = false;  // a group's solve is running: contacts are gathered per body
+    std::vector<BudgetGroup> groups;
+    std::vector<double> mass, weakest;  // per joint component root
+    std::vector<int> need, island_need;
+  } budget;
   ColouredContacts coloured_contacts;
   // The threads the step may use (World::set_threads); null: the caller's thread alone. Owned
   // by the World, so that restoring a snapshot keeps it.
@@ -175,5 +193,8 @@ inline int edge_contact(int edge_key) {
 inline int edge_side(int edge_key) {
   return edge_key & 1;
 }
+
+// The substeps an island predicted to give `give` metres runs with (budget.cpp).
+int budget_substeps(const WorldSettings& settings, double give);
 
 }  // namespace fulcrum

@@ -170,6 +170,13 @@ Status settings_from_proto(const v1::WorldSettings& p, const std::string& path, 
   CONVERT_RETURN_IF_ERROR(read_opt(join(path, "joint_damping_ratio"), p.has_joint_damping_ratio(),
                                    p.joint_damping_ratio(), Range::kNonNegative,
                                    &s->joint_damping_ratio));
+  if (p.has_max_substeps()) {
+    CONVERT_RETURN_IF_ERROR(check_int(join(path, "max_substeps"), p.max_substeps(), 1, 1000));
+    s->max_substeps = p.max_substeps();
+  }
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "joint_give_tolerance"), p.has_joint_give_tolerance(),
+                                   p.joint_give_tolerance(), Range::kPositive,
+                                   &s->joint_give_tolerance));
   CONVERT_RETURN_IF_ERROR(read_opt(join(path, "contact_damping_ratio"),
                                    p.has_contact_damping_ratio(), p.contact_damping_ratio(),
                                    Range::kNonNegative, &s->contact_damping_ratio));
@@ -904,6 +911,8 @@ void settings_to_proto(const WorldSettings& s, v1::WorldSettings* out) {
   out->set_contact_damping_ratio(s.contact_damping_ratio);
   out->set_joint_hertz(s.joint_hertz);
   out->set_joint_damping_ratio(s.joint_damping_ratio);
+  out->set_max_substeps(s.max_substeps);
+  out->set_joint_give_tolerance(s.joint_give_tolerance);
   out->set_position_iterations(s.position_iterations);
   out->set_split_impulses(s.split_impulses);
   out->set_baumgarte(s.baumgarte);

@@ -74,6 +74,7 @@ std::shared_ptr<const PublishedFrame> capture_frame(const World& world, uint64_t
   frame->world_id = world_id;
   frame->tick = world.tick();
   frame->state_hash = world.state_hash();
+  frame->budgets = world.budgets();
   frame->epoch = epoch;
   const std::vector<BodyId> ids = world.bodies();
   frame->bodies.reserve(ids.size());
@@ -98,6 +99,8 @@ void frame_to_proto(const PublishedFrame& next, const PublishedFrame* previous,
   out->set_skipped_ticks(static_cast<int64_t>(skipped_frames) * every_ticks);
   out->set_body_count(static_cast<int32_t>(next.bodies.size()));
   out->set_awake_body_count(next.awake_body_count);
+  out->set_budget_islands(next.budgets.islands);
+  out->set_max_substeps(next.budgets.max_substeps);
   const bool restored = previous != nullptr && previous->epoch != next.epoch;
   out->set_restored(restored);
   if (mode == v1::FRAME_BODIES_NONE) return;

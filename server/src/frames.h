@@ -50,6 +50,7 @@ struct PublishedFrame {
   int64_t tick = 0;
   uint64_t state_hash = 0;
   int awake_body_count = 0;
+  World::Budgets budgets;
   uint64_t epoch = 0;  // bumped by every restore: frames of different epochs are not diffed
   std::vector<BodyMotion> bodies;  // every live body, in index order
   uint64_t seq = 0;  // unique per session and increasing (0: not published; never memoized)

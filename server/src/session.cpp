@@ -69,6 +69,8 @@ void Session::refresh_summary_locked(uint64_t state_hash) {
   summary_.set_body_count(m.body_count);
   summary_.set_awake_body_count(m.awake_body_count);
   summary_.set_contact_count(m.contact_count);
+  summary_.set_budget_islands(m.budget_islands);
+  summary_.set_max_substeps(m.max_substeps);
   summary_.set_state_hash(state_hash);
   runtime_to_proto_locked(&summary_);
 }

@@ -104,6 +104,9 @@ std::string diff_settings(const WorldSettings& a, const WorldSettings& b) {
   RETURN_IF_DIFF(diff_double(p + ".joint_hertz", a.joint_hertz, b.joint_hertz));
   RETURN_IF_DIFF(
       diff_double(p + ".joint_damping_ratio", a.joint_damping_ratio, b.joint_damping_ratio));
+  RETURN_IF_DIFF(diff_value(p + ".max_substeps", a.max_substeps, b.max_substeps));
+  RETURN_IF_DIFF(
+      diff_double(p + ".joint_give_tolerance", a.joint_give_tolerance, b.joint_give_tolerance));
   RETURN_IF_DIFF(
       diff_value(p + ".position_iterations", a.position_iterations, b.position_iterations));
   RETURN_IF_DIFF(diff_value(p + ".split_impulses", a.split_impulses, b.split_impulses));
@@ -236,6 +239,8 @@ SceneDef AwkwardScene() {
   s.contact_damping_ratio = 0.1;
   s.joint_hertz = 33.0;
   s.joint_damping_ratio = 0.7;
+  s.max_substeps = 9;
+  s.joint_give_tolerance = 0.1 + 0.2;  // not a short decimal
   s.position_iterations = 0;
   s.split_impulses = true;
   s.baumgarte = 1.0 / 3.0;
@@ -352,7 +357,7 @@ SceneDef AwkwardScene() {
 // scene.proto, scene_convert.cpp (both directions) and the comparisons above, then these
 // numbers (x86-64 sizes).
 TEST(SceneSchema, EngineDefinitionStructsAreCovered) {
-  EXPECT_EQ(sizeof(WorldSettings), 192u);
+  EXPECT_EQ(sizeof(WorldSettings), 208u);
   EXPECT_EQ(sizeof(BodyDef), 160u);
   EXPECT_EQ(sizeof(AttractorDef), 64u);
   EXPECT_EQ(sizeof(ShapeDef), 368u);

@@ -139,6 +139,11 @@ struct WorldSettings {
   double joint_hertz = 60.0;            // Hz, >= 0: stiffness of joint position feedback
                                         // (0: rigid Baumgarte with `baumgarte`, no slop)
   double joint_damping_ratio = 2.0;     // >= 0
+  // Budgets (budget.cpp): an island whose soft joints would give more than
+  // joint_give_tolerance under the weight they carry runs more substeps, with its joints
+  // stiffer in proportion, up to max_substeps (<= substeps: never).
+  int max_substeps = 16;                // >= 1
+  double joint_give_tolerance = 0.008;  // m, > 0
   bool warm_starting = true;            // start each substep from the last one's impulses
   bool block_solver = true;             // rigid mode: two-point normal rows solved together
 

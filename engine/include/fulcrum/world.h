@@ -75,6 +75,10 @@ struct WorldMetrics {
   double angular_momentum = 0.0;        // about the origin, kg m^2/s
   double max_speed = 0.0;               // largest linear speed of any body, m/s
   double max_joint_error = 0.0;         // largest JointState::linear_error over all joints, m
+  // Budgets (WorldSettings::max_substeps): at the last tick, how many islands ran more
+  // substeps than the world's, and the most any island ran.
+  int budget_islands = 0;
+  int max_substeps = 0;
 };
 
 struct QueryFilter {
@@ -204,6 +208,12 @@ class World {
   // A state hash as Fulcrum prints it everywhere: 16 lowercase hex digits.
   static std::string hash_text(uint64_t hash);
   WorldMetrics metrics() const;
+  // The budgets of the last tick, as in WorldMetrics (cheap: no pass over the world).
+  struct Budgets {
+    int islands = 0;       // islands that ran more substeps than settings().substeps
+    int max_substeps = 0;  // the most substeps any island ran
+  };
+  Budgets budgets() const;
 
   // --- Snapshots (fulcrum/state.h) -----------------------------------------------------------
   // The complete world at this tick boundary. A world restored from it continues bit for bit.

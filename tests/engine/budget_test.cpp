@@ -1,0 +1,148 @@
+// Per-island solver budgets (budget.cpp): which islands get more substeps, that the others are
+// solved exactly as without budgets, and what the metrics report.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "fulcrum/scene.h"
+#include "fulcrum/scenes.h"
+#include "fulcrum/world.h"
+#include "scene_fixture.h"
+#include "world_impl.h"
+
+namespace fulcrum {
+namespace {
+
+using namespace fulcrum::testing;
+
+// The substeps follow the predicted give: none below the tolerance, S sqrt(give / tol)
+// rounded up above it (the give falls as the square of the substeps), capped.
+TEST(Budget, SubstepsGrowWithTheSquareRootOfTheGive) {
+  WorldSettings s;  // 4 substeps, tolerance 0.008 m, cap 16
+  EXPECT_EQ(budget_substeps(s, 0.0), 4);
+  EXPECT_EQ(budget_substeps(s, 0.008), 4);
+  EXPECT_EQ(budget_substeps(s, 4.0 * 0.008), 8);         // twice the substeps: a quarter
+  EXPECT_EQ(budget_substeps(s, 4.0 * 0.008 + 1e-9), 9);  // rounded up
+  EXPECT_EQ(budget_substeps(s, 9.0 * 0.008), 12);
+  EXPECT_EQ(budget_substeps(s, 1e6), 16);
+  s.max_substeps = 4;
+  EXPECT_EQ(budget_substeps(s, 1e6), 4);
+}
+
+// The predicted give of a joint component is |g| M K / omega^2: for the very heavy chain
+// (40 links of 0.25 kg at density 1, a ball of 1000 links, joints at 60 Hz) 0.146 m, which
+// asks for 4 sqrt(0.146 / 0.008) = 17.1, capped at 16 substeps. A ragdoll pile predicts
+// 2.6 mm and keeps 4.
+TEST(Budget, TheVeryHeavyChainGetsTheCapAndRagdollsKeepTheWorldsSubsteps) {
+  World chain = build("very_heavy_chain");
+  chain.step();
+  EXPECT_EQ(chain.metrics().budget_islands, 1);
+  EXPECT_EQ(chain.metrics().max_substeps, 16);
+  EXPECT_EQ(chain.budgets().max_substeps, 16);
+
+  World heavy = build("heavy_chain");  // predicts 1.97 cm: 4 sqrt(1.97 / 0.8) = 6.3, so 7
+  heavy.step();
+  EXPECT_EQ(heavy.metrics().max_substeps, 7);
+
+  World ragdolls = build("ragdolls");
+  ragdolls.step();
+  EXPECT_EQ(ragdolls.metrics().budget_islands, 0);
+  EXPECT_EQ(ragdolls.metrics().max_substeps, 4);
+}
+
+// Switched off (max_substeps <= substeps), nothing gets a budget.
+TEST(Budget, MaxSubstepsAtTheWorldsSubstepsTurnsBudgetsOff) {
+  SceneDef s = scene("very_heavy_chain");
+  s.settings.max_substeps = s.settings.substeps;
+  World w = build(s);
+  w.step();
+  EXPECT_EQ(w.metrics().budget_islands, 0);
+  EXPECT_EQ(w.metrics().max_substeps, 4);
+}
+
+// A pile that needs no budget is solved bit for bit as it would be alone, while a very heavy
+// chain far away runs 16 substeps in the same world: the pile pays nothing for the chain.
+TEST(Budget, AnIslandWithoutABudgetIsSolvedAsIfAlone) {
+  SceneDef pile;
+  scenes::add_ground(&pile, 20.0);
+  scenes::StackOptions stack;
+  stack.count = 8;
+  scenes::add_stack(&pile, stack);
+  SceneDef both = pile;
+  scenes::JointChainOptions chain;
+  chain.anchor = Vec2(100.0, 50.0);
+  chain.links = 40;
+  chain.end_mass = 1000.0;
+  scenes::add_joint_chain(&both, chain);
+
+  World alone = build(pile);
+  World shared = build(both);
+  for (int i = 0; i < 120; ++i) {
+    alone.step();
+    shared.step();
+  }
+  EXPECT_EQ(shared.metrics().budget_islands, 1);
+  EXPECT_EQ(shared.metrics().max_substeps, 16);
+  std::vector<BodyId> a = alone.bodies(), b = shared.bodies();
+  ASSERT_GE(b.size(), a.size());
+  for (size_t k = 0; k < a.size(); ++k) {
+    BodyState sa = *alone.body_state(a[k]), sb = *shared.body_state(b[k]);
+    EXPECT_EQ(sa.center.x(), sb.center.x()) << "body " << k;
+    EXPECT_EQ(sa.center.y(), sb.center.y()) << "body " << k;
+    EXPECT_EQ(sa.transform.q.s, sb.transform.q.s) << "body " << k;
+    EXPECT_EQ(sa.linear_velocity.x(), sb.linear_velocity.x()) << "body " << k;
+    EXPECT_EQ(sa.angular_velocity, sb.angular_velocity) << "body " << k;
+  }
+  // The chain holds (HARD_CASES 19's bound) beside the pile.
+  double worst = 0.0;
+  for (JointId j : shared.joints()) worst = std::max(worst, shared.joint_state(j)->linear_error);
+  EXPECT_LT(worst, 0.05);
+}
+
+// Budgets are part of the step: a world restored from a snapshot mid-swing continues bit for
+// bit, and so does one stepped on 2 threads (a pyramid's 210 boxes beside the chain give the
+// threads a share of the contacts).
+TEST(Budget, RestoredAndThreadedWorldsContinueBitForBit) {
+  SceneDef s;
+  scenes::add_ground(&s, 40.0);
+  scenes::add_pyramid(&s, scenes::PyramidOptions{});
+  scenes::JointChainOptions chain;
+  chain.anchor = Vec2(100.0, 50.0);
+  chain.links = 40;
+  chain.end_mass = 1000.0;
+  scenes::add_joint_chain(&s, chain);
+  World w = build(s);
+  for (int i = 0; i < 30; ++i) w.step();
+  World copy;
+  ASSERT_TRUE(copy.restore(w.snapshot()).ok());
+  World threaded = build(s);
+  ASSERT_TRUE(threaded.set_threads(2).ok());
+  for (int i = 0; i < 30; ++i) threaded.step();
+  for (int i = 0; i < 60; ++i) {
+    w.step();
+    copy.step();
+    threaded.step();
+  }
+  EXPECT_EQ(w.metrics().budget_islands, 1);
+  EXPECT_GE(w.metrics().contact_count, 256);  // enough for the threads to share
+  EXPECT_EQ(w.state_hash(), copy.state_hash());
+  EXPECT_EQ(w.state_hash(), threaded.state_hash());
+}
+
+// Bad settings are refused with the field named.
+TEST(Budget, SettingsOutOfRangeAreRefused) {
+  WorldSettings s;
+  s.max_substeps = 0;
+  Status st = validate_settings(s);
+  EXPECT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("settings.max_substeps"), std::string::npos) << st.message();
+  s = WorldSettings{};
+  s.joint_give_tolerance = 0.0;
+  st = validate_settings(s);
+  EXPECT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("settings.joint_give_tolerance"), std::string::npos) << st.message();
+}
+
+}  // namespace
+}  // namespace fulcrum
