@@ -11,11 +11,13 @@
 //
 // Substeps and joint stiffness go together (joint feedback is stable to about a quarter of
 // the substep rate), so an island run with n substeps instead of the world's S has its joints
-// at joint_hertz n / S, and its give falls as (S / n)^2. The island (bodies joined by joints
-// and touching contacts) gets the least n that brings its largest predicted give within
-// joint_give_tolerance, capped at max_substeps; islands that need none stay at S and are
-// solved as before, bit for bit. The budget is a pure function of the bodies' masses, the
-// joints and the contacts, so snapshots and replays reproduce it.
+// at joint_hertz n / S, and its give falls as (S / n)^2. Substeps do more than iterations
+// for the same passes, so the island keeps about the world's biased passes per tick where its
+// substeps allow: I S / n velocity iterations per substep (at least 1) instead of I. The island
+// (bodies joined by joints and touching contacts) gets the least n that brings its largest
+// predicted give within joint_give_tolerance, capped at max_substeps; islands that need none stay
+// at S and are solved as before, bit for bit. The budget is a pure function of the bodies' masses,
+// the joints and the contacts, so snapshots and replays reproduce it.
 #include <algorithm>
 #include <cmath>
 
@@ -45,6 +47,10 @@ int budget_substeps(const WorldSettings& s, double give) {
   if (!(give > s.joint_give_tolerance)) return s.substeps;
   const double need = std::ceil(s.substeps * std::sqrt(give / s.joint_give_tolerance));
   return need >= s.max_substeps ? s.max_substeps : std::max(s.substeps, static_cast<int>(need));
+}
+
+int budget_iterations(int iterations, int substeps, int budget) {
+  return std::max(1, iterations * substeps / budget);
 }
 
 bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
@@ -170,14 +176,17 @@ void WorldImpl::solve(const std::vector<int>& awake) {
     return;
   }
   const int substeps = settings.substeps;
+  const int iterations = settings.velocity_iterations;
   const double joint_hertz = settings.joint_hertz;
   budget.grouped = true;
   for (const BudgetGroup& grp : budget.groups) {
     settings.substeps = grp.substeps;
+    settings.velocity_iterations = budget_iterations(iterations, substeps, grp.substeps);
     settings.joint_hertz = joint_hertz * grp.substeps / substeps;
     solve_group(grp.bodies);
   }
   settings.substeps = substeps;
+  settings.velocity_iterations = iterations;
   settings.joint_hertz = joint_hertz;
   budget.grouped = false;
   // Later stages read the slots of the whole awake set.

@@ -196,5 +196,8 @@ inline int edge_side(int edge_key) {
 
 // The substeps an island predicted to give `give` metres runs with (budget.cpp).
 int budget_substeps(const WorldSettings& settings, double give);
+// The velocity iterations per substep of an island run with `budget` substeps instead of the
+// world's `substeps` (`iterations` each): iterations * substeps / budget, at least 1.
+int budget_iterations(int iterations, int substeps, int budget);
 
 }  // namespace fulcrum

@@ -28,6 +28,11 @@ TEST(Budget, SubstepsGrowWithTheSquareRootOfTheGive) {
   EXPECT_EQ(budget_substeps(s, 1e6), 16);
   s.max_substeps = 4;
   EXPECT_EQ(budget_substeps(s, 1e6), 4);
+  // Iterations: about the world's biased passes per tick, at least one per substep.
+  EXPECT_EQ(budget_iterations(2, 4, 4), 2);
+  EXPECT_EQ(budget_iterations(2, 4, 7), 1);
+  EXPECT_EQ(budget_iterations(8, 4, 16), 2);
+  EXPECT_EQ(budget_iterations(2, 4, 16), 1);
 }
 
 // The predicted give of a joint component is |g| M K / omega^2: for the very heavy chain

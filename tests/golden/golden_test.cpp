@@ -35,7 +35,7 @@ struct Pinned {
 constexpr Pinned kPinned[] = {
     {"pyramid",    240, 0x2d4e7fe4b093818cull, 0xde0c1470137d82baull},
     {"ragdolls",   240, 0x79e6685b7e2d08d1ull, 0x9fff94044a891d7cull},
-    {"rope_cloth", 240, 0x746084c08f5b4bf1ull, 0x3d47fad260a7b900ull},
+    {"rope_cloth", 240, 0x8615ea5170a78768ull, 0x487b4bc83605c6e5ull},
     {"sleep_wake", 480, 0x14bdaad56224257bull, 0xea154c3e140fe5b8ull},
     {"edits",      480, 0x96e2217942f0ad93ull, 0x6796030d74f6023eull},
     {"joints",     360, 0x870f2fb31a12f5f7ull, 0x05b064b10084ac2cull},
@@ -45,7 +45,7 @@ constexpr Pinned kPinned[] = {
 
 // The fingerprint these results carry, and a hash over kPinned that ties the two together.
 constexpr char kFingerprint[] = "fulcrum-results-3";
-constexpr uint64_t kResults = 0x26acd7e1f93399e0ull;
+constexpr uint64_t kResults = 0x230a40e4f99a6a41ull;
 
 // gtest prints a failing parameter with this (rather than its bytes).
 void PrintTo(const Pinned& pinned, std::ostream* os) {
