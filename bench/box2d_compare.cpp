@@ -38,6 +38,7 @@
 #include <box2d/box2d.h>
 
 #include "bench_text.h"
+#include "box2d_run.h"
 #include "box2d_twin.h"
 #include "fulcrum/scene.h"
 #include "fulcrum/scenes.h"
@@ -69,77 +70,6 @@ constexpr double kPi = 3.14159265358979323846;
 
 // --- Engines ---------------------------------------------------------------------------------
 
-// One body as both engines report it, in double.
-struct Pose {
-  Vec2 origin = Vec2::Zero();  // body origin, m
-  double angle = 0.0;          // rad (Fulcrum: in (-pi, pi]; Box2D: unwrapped)
-  Vec2 center = Vec2::Zero();  // centre of mass, m
-  Vec2 velocity = Vec2::Zero();
-  double spin = 0.0;
-
-  Vec2 world_point(const Vec2& local) const {
-    double c = std::cos(angle), s = std::sin(angle);
-    return origin + Vec2(c * local.x() - s * local.y(), s * local.x() + c * local.y());
-  }
-};
-
-class Engine {
- public:
-  virtual ~Engine() = default;
-  virtual void step() = 0;
-  // Every body, in scene order.
-  virtual void read(std::vector<Pose>* out) = 0;
-  // The largest overlap over the current contact points, m (each engine's own manifolds).
-  virtual double max_penetration() = 0;
-};
-
-class FulcrumEngine final : public Engine {
- public:
-  explicit FulcrumEngine(const SceneDef& scene)
-      : world_(std::move(fulcrum::build_world(scene).value())), ids_(world_.bodies()) {}
-  void step() override { world_.step(); }
-  void read(std::vector<Pose>* out) override {
-    out->resize(ids_.size());
-    for (size_t i = 0; i < ids_.size(); ++i) {
-      BodyState s = world_.body_state(ids_[i]).value();
-      (*out)[i] = {s.transform.p, s.transform.q.angle(), s.center, s.linear_velocity,
-                   s.angular_velocity};
-    }
-  }
-  double max_penetration() override { return world_.metrics().max_penetration; }
-
- private:
-  World world_;
-  std::vector<BodyId> ids_;
-};
-
-class Box2DEngine final : public Engine {
- public:
-  Box2DEngine(const SceneDef& scene, const std::vector<BodyMass>& masses,
-              const fulcrum::bench::TwinOptions& options, int vel_iters, int pos_iters,
-              fulcrum::bench::TwinNotes* notes)
-      : twin_(fulcrum::bench::build_box2d_twin(scene, masses, options, notes)),
-        dt_(static_cast<float>(scene.settings.dt)),
-        vel_(vel_iters),
-        pos_(pos_iters) {}
-  void step() override { twin_.world->Step(dt_, vel_, pos_); }
-  void read(std::vector<Pose>* out) override {
-    out->resize(twin_.bodies.size());
-    for (size_t i = 0; i < twin_.bodies.size(); ++i) {
-      const b2Body* b = twin_.bodies[i];
-      b2Vec2 p = b->GetPosition(), c = b->GetWorldCenter(), v = b->GetLinearVelocity();
-      (*out)[i] = {Vec2(p.x, p.y), b->GetAngle(), Vec2(c.x, c.y), Vec2(v.x, v.y),
-                   b->GetAngularVelocity()};
-    }
-  }
-  double max_penetration() override { return fulcrum::bench::box2d_max_penetration(*twin_.world); }
-
- private:
-  fulcrum::bench::Twin twin_;
-  float dt_;
-  int vel_, pos_;
-};
-
 // The three columns of every case, with the names the CSV gives them.
 enum EngineKind { kBox2D, kFulcrumSoft, kFulcrumClassic, kEngineCount };
 const char* const kEngineKeys[kEngineCount] = {"box2d", "fulcrum_default", "fulcrum_classic8"};
@@ -167,108 +97,6 @@ const std::pair<Measure, const char*> kColumns[] = {
     {kLimitError, "max_limit_error_rad"},   {kStretch, "max_stretch"},
     {kDisplacement, "displacement_m"},      {kBodiesOut, "bodies_out"},
     {kEnergyDrift, "energy_gain"}};
-
-bool is_dynamic(const SceneBody& b) {
-  return b.def.type == BodyType::kDynamic || b.def.type == BodyType::kParticle;
-}
-
-// Energy over the dynamic bodies, with Fulcrum's masses (which the Box2D twin carries too):
-// kinetic, plus gravitational when `potential`.
-double energy(const SceneDef& scene, const std::vector<BodyMass>& masses,
-              const std::vector<Pose>& poses, bool potential) {
-  const Vec2 g = scene.settings.gravity;
-  double e = 0.0;
-  for (size_t i = 0; i < poses.size(); ++i) {
-    const BodyMass& m = masses[i];
-    if (!is_dynamic(scene.bodies[i]) || m.mass <= 0.0) continue;
-    const Pose& p = poses[i];
-    e += 0.5 * m.mass * fulcrum::length_squared(p.velocity) + 0.5 * m.inertia * p.spin * p.spin;
-    if (potential) e -= m.mass * scene.bodies[i].def.gravity_scale * fulcrum::dot(g, p.center);
-  }
-  return e;
-}
-
-// The joint's wrapped relative angle, in (-pi, pi].
-double relative_angle(double a, double b, double reference) {
-  double r = std::remainder(b - a - reference, 2.0 * kPi);
-  return r <= -kPi ? r + 2.0 * kPi : r;
-}
-
-// How far one joint is from satisfied, from the world anchor points of both bodies, as
-// Fulcrum's JointState reports it: the anchor separation for revolute and weld joints, how far
-// the length is outside [min, max] for distance joints, the distance off the axis for prismatic
-// and wheel joints; motor joints (a target, not a constraint) give 0 (and no length). The limit
-// error is the angle past a revolute limit; the length, the anchors' distance.
-JointReading read_joint(const SceneJoint& sj, const std::vector<Pose>& poses) {
-  const Pose& a = poses[sj.body_a];
-  const Pose& b = poses[sj.body_b];
-  JointReading out;
-  std::visit(
-      [&](const auto& def) {
-        using Def = std::decay_t<decltype(def)>;
-        if constexpr (!std::is_same_v<Def, fulcrum::MotorJointDef>) {
-          Vec2 pa = a.world_point(def.local_anchor_a), pb = b.world_point(def.local_anchor_b);
-          Vec2 d = pb - pa;
-          out.length = fulcrum::length(d);
-          if constexpr (std::is_same_v<Def, fulcrum::DistanceJointDef>) {
-            out.separation =
-                std::max({0.0, def.min_length - out.length, out.length - def.max_length});
-          } else if constexpr (std::is_same_v<Def, fulcrum::PrismaticJointDef> ||
-                               std::is_same_v<Def, fulcrum::WheelJointDef>) {
-            Vec2 axis = a.world_point(def.local_axis_a) - a.world_point(Vec2::Zero());
-            out.separation = std::abs(fulcrum::cross(fulcrum::normalize_or_zero(axis), d));
-          } else {
-            if constexpr (std::is_same_v<Def, fulcrum::RevoluteJointDef>) {
-              if (def.enable_limit) {
-                double r = relative_angle(a.angle, b.angle, def.reference_angle);
-                out.limit_error = std::max({0.0, def.lower_angle - r, r - def.upper_angle});
-              }
-            }
-            out.separation = out.length;
-          }
-        }
-      },
-      sj.def);
-  return out;
-}
-
-// Every joint's reading, in scene order.
-void read_joints(const SceneDef& scene, const std::vector<Pose>& poses,
-                 std::vector<JointReading>* out) {
-  out->resize(scene.joints.size());
-  for (size_t k = 0; k < scene.joints.size(); ++k) (*out)[k] = read_joint(scene.joints[k], poses);
-}
-
-// A probe's view of one engine's run: the poses and joint readings the runner took after the
-// tick; penetration from the engine's own contacts, read on demand.
-class PoseView final : public View {
- public:
-  PoseView(const SceneDef& scene, const std::vector<BodyMass>& masses,
-           const std::vector<Pose>& poses, const std::vector<JointReading>& joints, Engine& engine,
-           int tick, int ticks)
-      : View(scene, tick, ticks),
-        masses_(masses),
-        poses_(poses),
-        joints_(joints),
-        engine_(&engine) {}
-
-  BodyPose body(size_t i) const override {
-    const Pose& p = poses_[i];
-    // The rotation as Pose::world_point applies it.
-    fulcrum::Transform xf{p.origin, fulcrum::Rot{std::cos(p.angle), std::sin(p.angle)}};
-    return {xf, p.center, p.velocity, p.spin};
-  }
-  JointReading joint(size_t k) const override { return joints_[k]; }
-  double max_penetration() const override { return engine_->max_penetration(); }
-  double kinetic_energy() const override { return energy(scene(), masses_, poses_, false); }
-  double mechanical_energy() const override { return energy(scene(), masses_, poses_, true); }
-
- private:
-  const std::vector<BodyMass>& masses_;
-  const std::vector<Pose>& poses_;
-  const std::vector<JointReading>& joints_;
-  Engine* engine_;
-};
 
 // --- Cases, each with its HARD_CASES criterion ----------------------------------------------
 

@@ -52,6 +52,9 @@
 #include "fulcrum/world.h"
 #include "hard_case_probes.h"
 #include "svg_plot.h"
+#ifdef FULCRUM_SWEEP_BOX2D
+#include "box2d_run.h"
+#endif
 
 namespace {
 
@@ -493,6 +496,22 @@ struct Row {
   double main_error() const { return m.value[c->main].value_or(0.0); }
 };
 
+// Box2D 2.4.1 on the same scene (its twin: box2d_twin.h), once per case, judged by the same
+// probe: the peer's point on each plot. Cases whose twin fulcrum_box2d_compare judges.
+struct Peer {
+  bool ran = false;
+  double ms_per_step = 0.0;
+  Measures m;
+};
+constexpr const char* kPeerLabel = "Box2D 2.4.1 (8+3, float)";
+
+bool has_twin(const Case& c) {
+  for (int id : {1, 2, 3, 4, 5, 9, 10, 11, 12, 13, 19, 20}) {
+    if (c.id == id) return true;
+  }
+  return false;
+}
+
 constexpr double kShortRunMs = 100.0;  // timed total of the first run, ms
 constexpr int kShortRunRepeats = 9;
 
@@ -650,12 +669,17 @@ std::string svg_name(const Case& c) {
   return buf;
 }
 
-std::string plot(const Case& c, const std::vector<Row*>& rows) {
+std::string plot(const Case& c, const std::vector<Row*>& rows, const Peer& peer) {
   fulcrum::bench::SvgScatter p;
   p.title = "Case " + std::to_string(c.id) + ": " + c.name;
   p.x_label = "ms per step (log)";
   p.y_label = c.labels.front().second + " (log)";
   for (const char* g : kFamilyLegend) p.groups.push_back(g);
+  if (peer.ran) {
+    p.groups.push_back(kPeerLabel);
+    p.points.push_back({peer.ms_per_step, peer.m.value[c.main].value_or(0.0), "b2d", kFamilyCount,
+                        peer.m.pass(), false});
+  }
   std::vector<const Row*> front;
   for (const Row* r : rows) {
     p.points.push_back({r->ms_per_step, r->main_error(), r->setting.short_label(),
@@ -675,7 +699,7 @@ std::string plot(const Case& c, const std::vector<Row*>& rows) {
   p.ring_label = "cheapest pass";
   p.note =
       "labels: SxI = soft, S substeps x I iterations; cN = classic, sN = classic + split, "
-      "N iterations; ad = adaptive (the default)";
+      "N iterations; ad = adaptive (the default); b2d = Box2D 2.4.1";
   return fulcrum::bench::to_svg(p);
 }
 
@@ -694,7 +718,8 @@ std::string md_cell(const Row& r, Measure m) {
 }
 
 std::string markdown(const std::vector<Case>& cases, const std::vector<Row>& rows,
-                     const std::string& command, double seconds, const std::string& load) {
+                     const std::vector<Peer>& peers, const std::string& command, double seconds,
+                     const std::string& load) {
   std::ostringstream o;
   o << "# Speed against error: the hard cases over the solver settings grid\n\n";
   o << "Written by `" << command << "` in " << num(seconds, 3) << " s on "
@@ -714,7 +739,8 @@ std::string markdown(const std::vector<Case>& cases, const std::vector<Row>& row
        "joints need it runs more substeps; docs/solver.md, Budgets). "
        "Every other setting is the scene's own (no per-test pinned settings).\n\n";
   o << "## Summary\n\n| # | case | ticks | cheapest passing setting | ms/step | default (adaptive) "
-       "| default fails on |\n|---|---|---|---|---|---|---|\n";
+       "| default fails on | Box2D 2.4.1 (8+3): verdict, ms/step |\n"
+       "|---|---|---|---|---|---|---|---|\n";
   for (const Case& c : cases) {
     const Row *cheapest = nullptr, *def = nullptr;
     int ticks = 0;
@@ -732,7 +758,13 @@ std::string markdown(const std::vector<Case>& cases, const std::vector<Row>& row
       << (cheapest ? cheapest->setting.label() : "none passes") << " | "
       << (cheapest ? num(cheapest->ms_per_step) : "-") << " | "
       << (def ? (def->m.pass() ? "pass" : "**fail**") : "not run") << " | "
-      << (fails.empty() ? "-" : md_escape(fails)) << " |\n";
+      << (fails.empty() ? "-" : md_escape(fails)) << " |";
+    const Peer& peer = peers[static_cast<size_t>(&c - cases.data())];
+    if (peer.ran) {
+      o << " " << (peer.m.pass() ? "pass" : "fail") << ", " << num(peer.ms_per_step) << " |\n";
+    } else {
+      o << " - |\n";
+    }
   }
   for (const Case& c : cases) {
     o << "\n## " << c.id << ". " << c.name << "\n\nPass: " << c.criterion << ".";
@@ -759,6 +791,15 @@ std::string markdown(const std::vector<Case>& cases, const std::vector<Row>& row
       if (r.cheapest) notes = "**cheapest pass**";
       if (r.pareto) notes += std::string(notes.empty() ? "" : ", ") + "front";
       o << notes << " |\n";
+    }
+    const Peer& peer = peers[static_cast<size_t>(&c - cases.data())];
+    if (peer.ran) {
+      o << "| " << kPeerLabel << " | " << num(peer.ms_per_step) << " |";
+      for (const auto& l : c.labels) {
+        o << " " << (peer.m.value[l.first] ? num(*peer.m.value[l.first]) : std::string("-"))
+          << " |";
+      }
+      o << " " << (peer.m.pass() ? "pass" : "fail") << " | peer |\n";
     }
   }
   return o.str();
@@ -820,8 +861,26 @@ int main(int argc, char** argv) {
   auto start = std::chrono::steady_clock::now();
   std::vector<Row> rows;
   rows.reserve(cases.size() * grid.size());
+  std::vector<Peer> peers(cases.size());
   for (const Case& c : cases) {
     check_builder(c.scene());
+#ifdef FULCRUM_SWEEP_BOX2D
+    if (has_twin(c)) {
+      const int ticks = smoke ? std::min(c.ticks, 20) : c.ticks;
+      const int timing = smoke ? ticks : std::min(c.timing_ticks, ticks);
+      fulcrum::bench::Box2DRun b2 =
+          fulcrum::bench::run_box2d(c.scene(), hard_case_probe(c.id), applies(c, kMaxPenetration),
+                                    applies(c, kJointError), ticks, timing);
+      Peer& peer = peers[static_cast<size_t>(&c - cases.data())];
+      peer.ran = true;
+      peer.ms_per_step = b2.ms_per_step;
+      peer.m = b2.m;
+      std::fprintf(stderr, "%9s %2d %-16s %-12s %9.4f ms/step  %s %-10s %s\n", "", c.id,
+                   c.name.c_str(), "box2d 2.4.1", peer.ms_per_step, c.labels.front().second.c_str(),
+                   num(peer.m.value[c.main].value_or(0.0)).c_str(),
+                   peer.m.pass() ? "pass" : "FAIL");
+    }
+#endif
     for (const Setting& s : grid) {
       rows.push_back(run(c, s, repeats, smoke));
       const Row& r = rows.back();
@@ -851,13 +910,13 @@ int main(int argc, char** argv) {
   std::string csv = std::string(kCsvHeader) + "\n";
   for (const Row& r : rows) csv += csv_row(r);
   write_file(dir / "sweep.csv", csv);
-  write_file(dir / "sweep.md", markdown(cases, rows, command, seconds, load));
+  write_file(dir / "sweep.md", markdown(cases, rows, peers, command, seconds, load));
   for (const Case& c : cases) {
     std::vector<Row*> mine;
     for (Row& r : rows) {
       if (r.c == &c) mine.push_back(&r);
     }
-    write_file(dir / svg_name(c), plot(c, mine));
+    write_file(dir / svg_name(c), plot(c, mine, peers[static_cast<size_t>(&c - cases.data())]));
   }
   std::printf("fulcrum_sweep: %zu cases x %zu settings in %.1f s (reference solves %.1f s) -> %s\n",
               cases.size(), grid.size(), seconds, g_reference_seconds, out_dir.c_str());
