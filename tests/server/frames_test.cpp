@@ -7,6 +7,9 @@
 #include <cmath>
 #include <limits>
 
+#include "fulcrum/scene.h"
+#include "fulcrum/scenes.h"
+#include "fulcrum/world.h"
 #include "quantize.h"
 
 namespace fulcrum::server {
@@ -91,6 +94,21 @@ TEST(Frames, NoneSendsCountsOnly) {
   EXPECT_EQ(out.bodies_size(), 0);
   EXPECT_EQ(out.body_count(), 2);
   EXPECT_EQ(out.awake_body_count(), 1);
+}
+
+// Every frame carries the world's budgets at its tick, captured from the world: a heavy chain's
+// island runs 7 substeps (docs/solver.md, Budgets).
+TEST(Frames, CarryTheBudgetsOfTheirTick) {
+  Result<SceneDef> scene = scenes::builtin("heavy_chain");
+  ASSERT_TRUE(scene.ok());
+  Result<World> world = build_world(*scene);
+  ASSERT_TRUE(world.ok());
+  world->step();
+  std::shared_ptr<const PublishedFrame> f = capture_frame(*world, 1, 0);
+  v1::Frame out;
+  frame_to_proto(*f, nullptr, v1::FRAME_BODIES_NONE, 0, 1, &out);
+  EXPECT_EQ(out.budget_islands(), 1);
+  EXPECT_EQ(out.max_substeps(), 7);
 }
 
 // Decoding as frames.proto says: value = units * step.

@@ -87,8 +87,13 @@ TEST(MetricsTest, ScrapesMatchGetStatsAndGetWorld) {
   Result<client::WorldSummary> b =
       client->create_world_json(R"({"name": "two \"quoted\" words", "builtin": "bounce"})");
   ASSERT_TRUE(b.ok()) << b.status().message();
+  // A heavy chain's island runs 7 substeps (its budget: docs/solver.md).
+  Result<client::WorldSummary> c =
+      client->create_world_json(R"({"name": "chain", "builtin": "heavy_chain"})");
+  ASSERT_TRUE(c.ok()) << c.status().message();
   ASSERT_TRUE(client->step(a->id, 30).ok());
   ASSERT_TRUE(client->step(b->id, 7).ok());
+  ASSERT_TRUE(client->step(c->id, 1).ok());
   EXPECT_FALSE(client->step(a->id, 0).ok());   // INVALID_ARGUMENT
   EXPECT_FALSE(client->get_world(999).ok());   // NOT_FOUND
   EXPECT_FALSE(client->get_world(1000).ok());  // NOT_FOUND
@@ -106,10 +111,10 @@ TEST(MetricsTest, ScrapesMatchGetStatsAndGetWorld) {
 
   // Counters the calls above moved, equal to GetStats (nothing else runs in this process).
   const auto& s = scrape.samples;
-  EXPECT_EQ(s.at("fulcrum_worlds"), 2);
+  EXPECT_EQ(s.at("fulcrum_worlds"), 3);
   EXPECT_EQ(s.at("fulcrum_worlds_created_total"), stats->worlds_created());
   EXPECT_EQ(s.at("fulcrum_ticks_total"), stats->ticks_stepped());
-  EXPECT_GE(s.at("fulcrum_ticks_total"), 37);
+  EXPECT_GE(s.at("fulcrum_ticks_total"), 38);
   EXPECT_EQ(s.at("fulcrum_refused_total{code=\"NOT_FOUND\"}"), 2);
   EXPECT_EQ(s.at("fulcrum_refused_total{code=\"INVALID_ARGUMENT\"}"), 1);
   EXPECT_EQ(s.at("fulcrum_refused_total{code=\"DATA_LOSS\"}"), 0);
@@ -130,6 +135,12 @@ TEST(MetricsTest, ScrapesMatchGetStatsAndGetWorld) {
   ASSERT_TRUE(info.ok());
   EXPECT_EQ(s.at("fulcrum_world_bodies" + la), info->body_count);
   EXPECT_EQ(s.at("fulcrum_world_real_time" + la), 0);
+  // Budgets: the pyramid needs none, the heavy chain's one island runs 7 substeps.
+  const std::string lc = "{world=\"" + std::to_string(c->id) + "\",name=\"chain\"}";
+  EXPECT_EQ(s.at("fulcrum_world_budget_islands" + la), 0);
+  EXPECT_EQ(s.at("fulcrum_world_max_substeps" + la), 4);
+  EXPECT_EQ(s.at("fulcrum_world_budget_islands" + lc), 1);
+  EXPECT_EQ(s.at("fulcrum_world_max_substeps" + lc), 7);
 
   // Another path is not found; a second scrape sees the server move on.
   EXPECT_EQ(http.Get("/")->status, 404);
