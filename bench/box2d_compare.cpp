@@ -83,6 +83,7 @@ void apply_classic8(WorldSettings* s) {
   s->relax_iterations = 0;
   s->contact_hertz = 0.0;
   s->split_impulses = false;
+  s->max_substeps = 1;  // budgets off: the classic step as it is
 }
 
 std::string soft_label(const WorldSettings& s) {
@@ -232,7 +233,7 @@ CaseRun run_case(const Case& c, const Options& o) {
   for (const SceneBody& b : scene.bodies) run.dynamic_bodies += is_dynamic(b);
   run.joints = static_cast<int>(scene.joints.size());
   run.col[kBox2D].label = "Box2D " + std::to_string(o.b2_vel) + "+" + std::to_string(o.b2_pos);
-  run.col[kFulcrumSoft].label = "Fulcrum " + soft_label(scene.settings);
+  run.col[kFulcrumSoft].label = "Fulcrum default (" + soft_label(scene.settings) + ", budgets)";
   run.col[kFulcrumClassic].label = "Fulcrum classic 8";
 
   std::array<std::vector<double>, kEngineCount> times;
@@ -370,11 +371,14 @@ std::string markdown(const std::vector<CaseRun>& runs, const Options& o, const H
   md << "- Fulcrum " << soft_label(d) << " (the default): double, " << d.substeps << " substeps of "
      << d.velocity_iterations << " velocity + " << d.relax_iterations
      << " relax iterations, soft contacts at " << num(d.contact_hertz) << " Hz, joints at "
-     << num(d.joint_hertz) << " Hz.\n";
+     << num(d.joint_hertz)
+     << " Hz; with per-island budgets (docs/solver.md): an island whose "
+        "joints need it runs up to "
+     << d.max_substeps << " substeps, joints stiffer in proportion.\n";
   md << "- Fulcrum classic 8 (as `fulcrum_sweep`'s): 1 substep, 8 velocity iterations, no relax "
         "pass, rigid Baumgarte contacts with "
      << num(d.linear_slop)
-     << " m slop (contact_hertz 0), split impulses off; joints as in the default.\n";
+     << " m slop (contact_hertz 0), split impulses off, no budgets; joints as in the default.\n";
   md << "- Both engines: the same scene (bodies, outlines, masses and inertias, friction 0.6 "
         "mixed as sqrt(a b), restitution mixed as max, restitution threshold 1 m/s, filters), "
         "gravity (0, -10), dt 1/60 s, sleeping as the scene says.\n";
