@@ -67,10 +67,13 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   if (slot.size() < bodies.size()) slot.resize(bodies.size(), 0);
   for (int k = 0; k < n; ++k) slot[awake[k]] = k + 1;
 
-  // Joint components: mass and weakest joint.
+  // Joint components: mass and weakest joint (first per body, then per component).
   std::vector<int>& parent = scratch_parent;
   parent.resize(n);
   for (int k = 0; k < n; ++k) parent[k] = k;
+  std::vector<double>& mass = budget.mass;
+  std::vector<double>& weakest = budget.weakest;
+  weakest.assign(n, 0.0);
   bool any = false;
   for (int k = 0; k < n; ++k) {
     const int bi = awake[k];
@@ -80,26 +83,20 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
       if (j.type == JointType::kSpring) continue;
       any = true;
       const int other = j.body_a == bi ? j.body_b : j.body_a;
-      if (bodies[other].is_dynamic() && bodies[other].awake) unite(parent, k, slot[other] - 1);
+      const Body& o = bodies[other];
+      weakest[k] = std::max(weakest[k], bodies[bi].inv_mass + o.inv_mass);
+      if (o.is_dynamic() && o.awake) unite(parent, k, slot[other] - 1);
     }
   }
   if (!any) return false;
   budget.grouped = false;
-  std::vector<double>& mass = budget.mass;
-  std::vector<double>& weakest = budget.weakest;
   mass.assign(n, 0.0);
-  weakest.assign(n, 0.0);
   for (int k = 0; k < n; ++k) {
     const Body& b = bodies[awake[k]];
     if (!b.is_dynamic()) continue;
     const int r = find_root(parent, k);
     mass[r] += b.mass;
-    for (int ji : b.joints) {
-      const Joint& j = joints[ji];
-      if (j.type == JointType::kSpring) continue;
-      const double k_pair = bodies[j.body_a].inv_mass + bodies[j.body_b].inv_mass;
-      weakest[r] = std::max(weakest[r], k_pair);
-    }
+    if (r != k) weakest[r] = std::max(weakest[r], weakest[k]);
   }
   const double omega = 2.0 * 3.14159265358979323846 * settings.joint_hertz;
   std::vector<int>& need = budget.need;

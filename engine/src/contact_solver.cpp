@@ -726,6 +726,7 @@ void WorldImpl::solve_group(const std::vector<int>& awake) {
       if (contact_pass(relax, lane_relax) < set.early_exit_tolerance) break;
     }
   }
+  store_joint_impulses();
   if (coloured) unpack_impulses(coloured_contacts, &s, workers);
   apply_restitution(s, set.restitution_threshold);
   // Each row writes its own contact, each body its own record.

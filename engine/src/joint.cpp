@@ -236,6 +236,11 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
       // Revolute, weld and motor: the angle row's mass and the joint angle at tick start.
       r.angle = relative_angle(ba.xf.q, bb.xf.q, j.reference_angle);
       prepare_revolute_joint(j, r, a, b);
+      r.plain_point = j.type == JointType::kRevolute && !j.enable_limit && !j.enable_motor &&
+                      !j.enable_spring && j.spring_impulse == 0.0 && j.motor_impulse == 0.0 &&
+                      j.lower_impulse == 0.0 && j.upper_impulse == 0.0;
+      r.lix = j.linear_impulse.x();
+      r.liy = j.linear_impulse.y();
     }
   }
   s.joint_rows.resize(n_rows);
@@ -244,9 +249,13 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
 void WorldImpl::warm_start_joints() {
   SolverScratch& s = solver_scratch;
   for (const JointRow& r : s.joint_rows) {
-    Joint& j = joints[r.joint];
     SolverBody& a = s.bodies[r.ia];
     SolverBody& b = s.bodies[r.ib];
+    if (r.plain_point) {
+      warm_start_point_row(r, a, b);
+      continue;
+    }
+    Joint& j = joints[r.joint];
     switch (j.type) {
       case JointType::kDistance:
         warm_start_distance_joint(j, r, a, b);
@@ -287,10 +296,17 @@ void WorldImpl::solve_joints(bool use_bias) {
   st.rigid = settings.joint_hertz == 0.0;
   st.baumgarte = settings.baumgarte;
   st.max_speed = settings.max_correction_speed;
-  for (const JointRow& r : s.joint_rows) {
-    Joint& j = joints[r.joint];
+  for (JointRow& r : s.joint_rows) {
     SolverBody& a = s.bodies[r.ia];
     SolverBody& b = s.bodies[r.ib];
+    if (r.plain_point) {
+      double impulse[2] = {r.lix, r.liy};
+      solve_revolute_point(r, st, impulse, a, b);
+      r.lix = impulse[0];
+      r.liy = impulse[1];
+      continue;
+    }
+    Joint& j = joints[r.joint];
     switch (j.type) {
       case JointType::kDistance:
         solve_distance_joint(j, r, st, a, b);
@@ -319,6 +335,12 @@ void WorldImpl::solve_joints(bool use_bias) {
       case JointType::kSpring:
         break;
     }
+  }
+}
+
+void WorldImpl::store_joint_impulses() {
+  for (const JointRow& r : solver_scratch.joint_rows) {
+    if (r.plain_point) joints[r.joint].linear_impulse = Vec2(r.lix, r.liy);
   }
 }
 

@@ -24,6 +24,11 @@ struct JointRow {
   Softness soft;                      // position feedback
   Softness spring;                    // the joint's own spring (weld: linear part)
   Softness angular_spring;            // weld: angular part
+  // A revolute joint that is only its point (no limit, motor or spring, and no impulse left
+  // on those rows) keeps its point impulse here for the tick, so that warm starting and
+  // solving it never touch the large Joint record; store_joint_impulses writes it back.
+  bool plain_point = false;
+  double lix = 0.0, liy = 0.0;
 };
 
 // Context shared by every joint row of one substep.
@@ -216,5 +221,10 @@ void prepare_revolute_joint(const Joint& j, JointRow& r, const SolverBody& a, co
 void warm_start_revolute_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b);
 void solve_revolute_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
                           SolverBody& b);
+// A revolute joint's point rows, with its accumulated point impulse in `impulse` (x, y).
+void solve_revolute_point(const JointRow& r, const JointStep& st, double* impulse, SolverBody& a,
+                          SolverBody& b);
+// Warm starting a plain point row (JointRow::plain_point) from the row's own impulse.
+void warm_start_point_row(const JointRow& r, SolverBody& a, SolverBody& b);
 
 }  // namespace fulcrum

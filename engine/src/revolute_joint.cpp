@@ -93,6 +93,14 @@ void solve_revolute_joint(Joint& j, const JointRow& r, const JointStep& st, Solv
   }
 
   // The point: two rows solved together through K.
+  double impulse[2] = {j.linear_impulse.x(), j.linear_impulse.y()};
+  solve_revolute_point(r, st, impulse, a, b);
+  j.linear_impulse = Vec2(impulse[0], impulse[1]);
+}
+
+// The point: two rows solved together through K.
+void solve_revolute_point(const JointRow& r, const JointStep& st, double* impulse, SolverBody& a,
+                          SolverBody& b) {
   JointFrame f = joint_frame(r, a, b);
   double cdx = (b.vx - b.w * f.rby) - (a.vx - a.w * f.ray);
   double cdy = (b.vy + b.w * f.rbx) - (a.vy + a.w * f.rax);
@@ -117,14 +125,21 @@ void solve_revolute_joint(Joint& j, const JointRow& r, const JointStep& st, Solv
   double rx = cdx + bias_x, ry = cdy + bias_y;
   double sx = inv_det * (k22 * rx - k12 * ry);
   double sy = inv_det * (k11 * ry - k12 * rx);
-  double px = -ms * sx - is * j.linear_impulse.x();
-  double py = -ms * sy - is * j.linear_impulse.y();
-  Vec2 capped =
-      capped_point_correction(st, k11, k12, k22, inv_det, bias_x, bias_y, ms, is, j.linear_impulse);
+  double px = -ms * sx - is * impulse[0];
+  double py = -ms * sy - is * impulse[1];
+  Vec2 capped = capped_point_correction(st, k11, k12, k22, inv_det, bias_x, bias_y, ms, is,
+                                        Vec2(impulse[0], impulse[1]));
   px += capped.x();
   py += capped.y();
-  j.linear_impulse += Vec2(px, py);
+  impulse[0] += px;
+  impulse[1] += py;
   apply_joint_impulse(f, px, py, a, b);
+}
+
+void warm_start_point_row(const JointRow& r, SolverBody& a, SolverBody& b) {
+  JointFrame f = joint_frame(r, a, b);
+  apply_joint_impulse(f, r.lix, r.liy, a, b);
+  apply_angular(0.0, a, b);
 }
 
 }  // namespace fulcrum

@@ -85,6 +85,8 @@ class WorldImpl {
   void prepare_joints(const std::vector<int>& awake, double h);
   void warm_start_joints();
   void solve_joints(bool use_bias);
+  // Writes the tick's point impulses of plain point rows back to their joints.
+  void store_joint_impulses();
   // Spring force elements: one substep's forces into the solver bodies' velocities.
   void apply_spring_forces(double h);
   // Removes joints whose last tick's reaction passed their break limits.
