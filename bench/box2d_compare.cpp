@@ -233,7 +233,7 @@ CaseRun run_case(const Case& c, const Options& o) {
   for (const SceneBody& b : scene.bodies) run.dynamic_bodies += is_dynamic(b);
   run.joints = static_cast<int>(scene.joints.size());
   run.col[kBox2D].label = "Box2D " + std::to_string(o.b2_vel) + "+" + std::to_string(o.b2_pos);
-  run.col[kFulcrumSoft].label = "Fulcrum default (" + soft_label(scene.settings) + ", budgets)";
+  run.col[kFulcrumSoft].label = "Fulcrum default (" + soft_label(scene.settings) + " + budgets)";
   run.col[kFulcrumClassic].label = "Fulcrum classic 8";
 
   std::array<std::vector<double>, kEngineCount> times;
