@@ -66,6 +66,16 @@ TEST(Budget, MaxSubstepsAtTheWorldsSubstepsTurnsBudgetsOff) {
   EXPECT_EQ(w.metrics().max_substeps, 4);
 }
 
+// HARD_CASES 19's chain (40 links, a ball of 1000 link masses), hung far to the side of
+// whatever else the scene holds.
+void add_very_heavy_chain(SceneDef* s) {
+  scenes::JointChainOptions chain;
+  chain.anchor = Vec2(100.0, 50.0);
+  chain.links = 40;
+  chain.end_mass = 1000.0;
+  scenes::add_joint_chain(s, chain);
+}
+
 // A pile that needs no budget is solved bit for bit as it would be alone, while a very heavy
 // chain far away runs 16 substeps in the same world: the pile pays nothing for the chain.
 TEST(Budget, AnIslandWithoutABudgetIsSolvedAsIfAlone) {
@@ -75,11 +85,7 @@ TEST(Budget, AnIslandWithoutABudgetIsSolvedAsIfAlone) {
   stack.count = 8;
   scenes::add_stack(&pile, stack);
   SceneDef both = pile;
-  scenes::JointChainOptions chain;
-  chain.anchor = Vec2(100.0, 50.0);
-  chain.links = 40;
-  chain.end_mass = 1000.0;
-  scenes::add_joint_chain(&both, chain);
+  add_very_heavy_chain(&both);
 
   World alone = build(pile);
   World shared = build(both);
@@ -112,11 +118,7 @@ TEST(Budget, RestoredAndThreadedWorldsContinueBitForBit) {
   SceneDef s;
   scenes::add_ground(&s, 40.0);
   scenes::add_pyramid(&s, scenes::PyramidOptions{});
-  scenes::JointChainOptions chain;
-  chain.anchor = Vec2(100.0, 50.0);
-  chain.links = 40;
-  chain.end_mass = 1000.0;
-  scenes::add_joint_chain(&s, chain);
+  add_very_heavy_chain(&s);
   World w = build(s);
   for (int i = 0; i < 30; ++i) w.step();
   World copy;
