@@ -89,7 +89,6 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
     }
   }
   if (!any) return false;
-  budget.grouped = false;
   mass.assign(n, 0.0);
   for (int k = 0; k < n; ++k) {
     const Body& b = bodies[awake[k]];
@@ -175,7 +174,6 @@ void WorldImpl::solve(const std::vector<int>& awake) {
   const int substeps = settings.substeps;
   const int iterations = settings.velocity_iterations;
   const double joint_hertz = settings.joint_hertz;
-  budget.grouped = true;
   for (const BudgetGroup& grp : budget.groups) {
     settings.substeps = grp.substeps;
     settings.velocity_iterations = budget_iterations(iterations, substeps, grp.substeps);
@@ -185,7 +183,6 @@ void WorldImpl::solve(const std::vector<int>& awake) {
   settings.substeps = substeps;
   settings.velocity_iterations = iterations;
   settings.joint_hertz = joint_hertz;
-  budget.grouped = false;
   // Later stages read the slots of the whole awake set.
   std::vector<int>& slot = solver_scratch.body_slot;
   for (size_t k = 0; k < awake.size(); ++k) slot[awake[k]] = static_cast<int>(k + 1);

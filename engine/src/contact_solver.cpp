@@ -83,8 +83,10 @@ inline double current_separation(const SolverBody& a, const SolverBody& b, const
 // Gathers the awake, touching, solid contacts in id order.
 void gather_contacts(WorldImpl& w, const std::vector<int>& awake, std::vector<int>* out) {
   out->clear();
-  if (!w.budget.grouped && 2 * awake.size() >= static_cast<size_t>(w.body_count)) {
-    // Most bodies awake: one pass over the pool finds the same contacts, already in id order.
+  if (awake.size() == w.awake_bodies.size() &&
+      2 * awake.size() >= static_cast<size_t>(w.body_count)) {
+    // All awake bodies (not one budget group), most bodies in all: one pass over the pool finds
+    // the same contacts, already in id order.
     for (size_t ci = 0; ci < w.contacts.size(); ++ci) {
       const Contact& c = w.contacts[ci];
       if (c.alive && c.touching && !c.sensor &&

@@ -239,8 +239,10 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
       r.plain_point = j.type == JointType::kRevolute && !j.enable_limit && !j.enable_motor &&
                       !j.enable_spring && j.spring_impulse == 0.0 && j.motor_impulse == 0.0 &&
                       j.lower_impulse == 0.0 && j.upper_impulse == 0.0;
-      r.lix = j.linear_impulse.x();
-      r.liy = j.linear_impulse.y();
+      if (r.plain_point) {
+        r.lix = j.linear_impulse.x();
+        r.liy = j.linear_impulse.y();
+      }
     }
   }
   s.joint_rows.resize(n_rows);

@@ -165,7 +165,6 @@ class WorldImpl {
   struct Budget {
     int islands = 0;       // islands given more substeps than the world's, this tick
     int max_substeps = 0;  // the most substeps any island ran this tick
-    bool grouped = false;  // a group's solve is running: contacts are gathered per body
     std::vector<BudgetGroup> groups;
     std::vector<double> mass, weakest;  // per joint component root
     std::vector<int> need, island_need;
