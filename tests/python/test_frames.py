@@ -16,6 +16,9 @@ def test_frames_come_with_increasing_ticks_every_k(client, scenes):
         stepper = threading.Thread(target=lambda: [world.step(7) for _ in range(20)])
         frames = []
         with world.frames(every=every, until_tick=140) as stream:
+            # The server registers a reader before it sends the first frame, so stepping only
+            # once that frame is here keeps every later tick in this reader's view.
+            frames.append(next(stream))
             stepper.start()
             for frame in stream:
                 frames.append(frame)
