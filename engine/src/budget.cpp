@@ -16,10 +16,27 @@
 // substeps allow: I S / n velocity iterations per substep (at least 1) instead of I. The island
 // (bodies joined by joints and touching contacts) gets the least n that brings its largest
 // predicted give within joint_give_tolerance, capped at max_substeps; islands that need none stay
-// at S and are solved as before, bit for bit. The budget is a pure function of the bodies' masses,
-// the joints and the contacts, so snapshots and replays reproduce it.
+// at S and are solved as before, bit for bit.
+//
+// Contacts give the same way: a soft contact point carrying a load F is pressed in by
+// F K / omega_c^2 (K its effective inverse mass along the normal, omega_c = 2 pi contact_hertz,
+// doubled against a body of infinite mass as the solver does). What that costs depends on the
+// shapes: a millimetre is nothing to a 1 m box and most of a 2 mm plank, and a stack of planks
+// sinks by the sum of its contacts' compressions. So each contact point predicts the ratio of
+// its compression to the thickness of the thinner dynamic shape it touches, from the load it
+// carried last tick (its warm-start impulse), and the island gets the least n that brings its
+// largest ratio within contact_give_tolerance, with its contacts at contact_hertz n / S.
+// Contact impulses are kept between ticks per world substep (dt / S) whatever an island ran,
+// so the load read back does not depend on last tick's budget. Only contacts at rest count
+// (both bodies slower than |g| dt, what gravity adds in one tick), and a point's load is taken
+// as at most its island's weight, so that an impact's impulse does not buy a budget; without
+// gravity there is no weight and no contact budget.
+//
+// The budget is a pure function of the bodies' masses, the joints, the contacts and their
+// impulses, all state, so snapshots and replays reproduce it.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "world_impl.h"
 
@@ -43,34 +60,55 @@ void unite(std::vector<int>& parent, int a, int b) {
 
 }  // namespace
 
-int budget_substeps(const WorldSettings& s, double give) {
-  if (!(give > s.joint_give_tolerance)) return s.substeps;
-  const double need = std::ceil(s.substeps * std::sqrt(give / s.joint_give_tolerance));
+namespace {
+
+int substeps_for(const WorldSettings& s, double ratio) {
+  if (!(ratio > 1.0)) return s.substeps;
+  const double need = std::ceil(s.substeps * std::sqrt(ratio));
   return need >= s.max_substeps ? s.max_substeps : std::max(s.substeps, static_cast<int>(need));
+}
+
+}  // namespace
+
+int budget_substeps(const WorldSettings& s, double give) {
+  return substeps_for(s, give / s.joint_give_tolerance);
+}
+
+int contact_budget_substeps(const WorldSettings& s, double ratio) {
+  return substeps_for(s, ratio / s.contact_give_tolerance);
+}
+
+double geometry_thickness(const Geometry& geometry) {
+  if (const auto* c = std::get_if<Circle>(&geometry)) return 2.0 * c->radius;
+  if (const auto* c = std::get_if<Capsule>(&geometry)) return 2.0 * c->radius;
+  if (const auto* p = std::get_if<Polygon>(&geometry)) {
+    // Across each edge's normal, the farthest vertex; the narrowest of those.
+    double width = std::numeric_limits<double>::infinity();
+    for (int i = 0; i < p->count; ++i) {
+      double far = 0.0;
+      for (int k = 0; k < p->count; ++k) {
+        far = std::max(far, p->normals[i].dot(p->vertices[i] - p->vertices[k]));
+      }
+      width = std::min(width, far);
+    }
+    return width + 2.0 * p->radius;
+  }
+  return 0.0;
+}
+
+void WorldImpl::set_shape_thickness(int shape) {
+  if (shape_thickness.size() < shapes.size()) shape_thickness.resize(shapes.size(), 0.0);
+  shape_thickness[shape] = geometry_thickness(shapes[shape].geometry);
 }
 
 int budget_iterations(int iterations, int substeps, int budget) {
   return std::max(1, iterations * substeps / budget);
 }
 
-bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
-  budget.islands = 0;
-  budget.max_substeps = settings.substeps;
-  budget.groups.clear();
-  const double g = std::sqrt(settings.gravity.x() * settings.gravity.x() +
-                             settings.gravity.y() * settings.gravity.y());
-  if (settings.max_substeps <= settings.substeps || settings.joint_hertz == 0.0 || g == 0.0) {
-    return false;
-  }
+bool WorldImpl::plan_joint_needs(const std::vector<int>& awake, double g) {
   const int n = static_cast<int>(awake.size());
-  std::vector<int>& slot = solver_scratch.body_slot;  // body -> 1 + position in `awake`
-  if (slot.size() < bodies.size()) slot.resize(bodies.size(), 0);
-  for (int k = 0; k < n; ++k) slot[awake[k]] = k + 1;
-
-  // Joint components: mass and weakest joint (first per body, then per component).
+  const std::vector<int>& slot = solver_scratch.body_slot;
   std::vector<int>& parent = scratch_parent;
-  parent.resize(n);
-  for (int k = 0; k < n; ++k) parent[k] = k;
   std::vector<double>& mass = budget.mass;
   std::vector<double>& weakest = budget.weakest;
   weakest.assign(n, 0.0);
@@ -88,7 +126,7 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
       if (o.is_dynamic() && o.awake) unite(parent, k, slot[other] - 1);
     }
   }
-  if (!any) return false;
+  if (!any || g == 0.0) return false;
   mass.assign(n, 0.0);
   for (int k = 0; k < n; ++k) {
     const Body& b = bodies[awake[k]];
@@ -99,17 +137,101 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   }
   const double omega = 2.0 * 3.14159265358979323846 * settings.joint_hertz;
   std::vector<int>& need = budget.need;
-  need.assign(n, settings.substeps);
   bool more = false;
   for (int k = 0; k < n; ++k) {
     if (find_root(parent, k) != k || weakest[k] == 0.0) continue;
     need[k] = budget_substeps(settings, g * mass[k] * weakest[k] / (omega * omega));
     more = more || need[k] > settings.substeps;
   }
+  return more;
+}
+
+bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
+  budget.islands = 0;
+  budget.max_substeps = settings.substeps;
+  budget.groups.clear();
+  if (settings.max_substeps <= settings.substeps) return false;
+  const double g = std::sqrt(settings.gravity.x() * settings.gravity.x() +
+                             settings.gravity.y() * settings.gravity.y());
+  const bool joint_budgets = settings.joint_hertz != 0.0 && g != 0.0;
+  const bool contact_budgets = settings.contact_hertz != 0.0 && g != 0.0;
+  if (!joint_budgets && !contact_budgets) return false;
+  const int n = static_cast<int>(awake.size());
+  std::vector<int>& slot = solver_scratch.body_slot;  // body -> 1 + position in `awake`
+  if (slot.size() < bodies.size()) slot.resize(bodies.size(), 0);
+  for (int k = 0; k < n; ++k) slot[awake[k]] = k + 1;
+
+  // Joint components: mass and weakest joint (first per body, then per component).
+  std::vector<int>& parent = scratch_parent;
+  parent.resize(n);
+  for (int k = 0; k < n; ++k) parent[k] = k;
+  std::vector<int>& need = budget.need;
+  need.assign(n, settings.substeps);
+  bool more = false;
+  // Joint components are joined whether or not their joints need a budget: a joint's two
+  // bodies are always solved in one group.
+  more = plan_joint_needs(awake, joint_budgets ? g : 0.0);
+
+  // Contacts at rest: each body's worst point, counted on the side of body A when both bodies
+  // are awake and dynamic: its compression over thickness from last tick's load (`pressed`),
+  // and per newton of load (`reach`), which bounds the first by the island's weight below.
+  std::vector<double>& pressed = budget.pressed;
+  std::vector<double>& reach = budget.reach;
+  pressed.assign(n, 0.0);
+  reach.assign(n, 0.0);
+  const double omega_c = 2.0 * 3.14159265358979323846 * settings.contact_hertz;
+  if (contact_budgets) {
+    const double per_impulse = settings.substeps / settings.dt;  // load of an impulse kept
+    const double per_load = 1.0 / (omega_c * omega_c);
+    // Only loads at rest count: a body faster than gravity makes it in one tick is hitting
+    // or being pushed, not resting on its contacts.
+    const double rest_speed2 = g * settings.dt * g * settings.dt;
+    bool any = false;
+    for (int k = 0; k < n; ++k) {
+      const int bi = awake[k];
+      if (!bodies[bi].is_dynamic()) continue;
+      for (int e = bodies[bi].contact_list; e != kNullIndex;) {
+        const Contact& c = contacts[edge_contact(e)];
+        e = c.edges[edge_side(e)].next;
+        if (!c.touching || c.sensor || c.manifold.count == 0) continue;
+        const Body& o = bodies[c.body_a == bi ? c.body_b : c.body_a];
+        if (o.is_dynamic() && o.awake && c.body_a != bi) continue;
+        const Body& a = bodies[c.body_a];
+        const Body& b = bodies[c.body_b];
+        if (a.v.squaredNorm() > rest_speed2 || b.v.squaredNorm() > rest_speed2) continue;
+        double thickness = std::numeric_limits<double>::infinity();
+        if (a.is_dynamic()) thickness = shape_thickness[c.shape_a];
+        if (b.is_dynamic()) thickness = std::min(thickness, shape_thickness[c.shape_b]);
+        if (!(thickness > 0.0)) continue;
+        const double ima = a.is_dynamic() ? a.inv_mass : 0.0;
+        const double imb = b.is_dynamic() ? b.inv_mass : 0.0;
+        const double iia = a.is_dynamic() ? a.inv_inertia : 0.0;
+        const double iib = b.is_dynamic() ? b.inv_inertia : 0.0;
+        // Against a body of infinite mass the solver's spring is twice as fast: a quarter of
+        // the compression.
+        const double scale = per_load / thickness * (ima == 0.0 || imb == 0.0 ? 0.25 : 1.0);
+        const Vec2 normal = c.manifold.normal;
+        for (int i = 0; i < c.manifold.count; ++i) {
+          const ManifoldPoint& p = c.manifold.points[i];
+          if (!(p.normal_impulse > 0.0)) continue;
+          const double rna = cross(p.point - a.center, normal);
+          const double rnb = cross(p.point - b.center, normal);
+          const double k_inv = ima + imb + iia * rna * rna + iib * rnb * rnb;
+          pressed[k] = std::max(pressed[k], p.normal_impulse * per_impulse * k_inv * scale);
+          reach[k] = std::max(reach[k], k_inv * scale);
+        }
+      }
+      any = any || contact_budget_substeps(settings, pressed[k]) > settings.substeps;
+    }
+    more = more || any;
+  }
   if (!more) return false;
 
   // Islands: joint components joined by touching contacts. One touching a kinematic body keeps
-  // the world's substeps (the kinematic body moves once, with the base group).
+  // the world's substeps (the kinematic body moves once, with the base group), and so does one
+  // driven by a motor against a body of infinite mass (a tumbler's drum, a spinner's arm):
+  // with torque to spare it moves its body as a kinematic one would, and what it pushes
+  // carries its drive, not a weight.
   std::vector<int> component(n);
   for (int k = 0; k < n; ++k) component[k] = find_root(parent, k);
   std::vector<int>& island_need = budget.island_need;
@@ -120,7 +242,8 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
     for (int ji : bodies[bi].joints) {
       const Joint& j = joints[ji];
       const Body& o = bodies[j.body_a == bi ? j.body_b : j.body_a];
-      if (o.awake && !o.is_dynamic()) island_need[k] = -1;
+      const bool driven = j.enable_motor || j.type == JointType::kMotor;
+      if (!o.is_dynamic() && (o.awake || driven)) island_need[k] = -1;
     }
     for (int e = bodies[bi].contact_list; e != kNullIndex;) {
       const Contact& c = contacts[edge_contact(e)];
@@ -135,13 +258,26 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
       }
     }
   }
+  // A contact carries at most its island's weight: an impact's impulse does not buy a budget.
+  std::vector<double>& weight = budget.mass;
+  if (contact_budgets) {
+    weight.assign(n, 0.0);
+    for (int k = 0; k < n; ++k) {
+      const Body& b = bodies[awake[k]];
+      if (b.is_dynamic()) weight[find_root(parent, k)] += g * b.mass;
+    }
+  }
   for (int k = 0; k < n; ++k) {
     const int r = find_root(parent, k);
     if (island_need[k] < 0 || island_need[r] < 0) {
       island_need[r] = -1;
-    } else {
-      island_need[r] = std::max(island_need[r], need[component[k]]);
+      continue;
     }
+    int contact_need = settings.substeps;
+    if (pressed[k] > 0.0) {
+      contact_need = contact_budget_substeps(settings, std::min(pressed[k], weight[r] * reach[k]));
+    }
+    island_need[r] = std::max({island_need[r], need[component[k]], contact_need});
   }
   // Groups by substeps, ascending; bodies in id order within each.
   std::vector<int> counts;
@@ -167,6 +303,7 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
 }
 
 void WorldImpl::solve(const std::vector<int>& awake) {
+  budget.base_substeps = settings.substeps;
   if (!plan_budgets(awake)) {
     solve_group(awake);
     return;
@@ -174,15 +311,18 @@ void WorldImpl::solve(const std::vector<int>& awake) {
   const int substeps = settings.substeps;
   const int iterations = settings.velocity_iterations;
   const double joint_hertz = settings.joint_hertz;
+  const double contact_hertz = settings.contact_hertz;
   for (const BudgetGroup& grp : budget.groups) {
     settings.substeps = grp.substeps;
     settings.velocity_iterations = budget_iterations(iterations, substeps, grp.substeps);
     settings.joint_hertz = joint_hertz * grp.substeps / substeps;
+    settings.contact_hertz = contact_hertz * grp.substeps / substeps;
     solve_group(grp.bodies);
   }
   settings.substeps = substeps;
   settings.velocity_iterations = iterations;
   settings.joint_hertz = joint_hertz;
+  settings.contact_hertz = contact_hertz;
   // Later stages read the slots of the whole awake set.
   std::vector<int>& slot = solver_scratch.body_slot;
   for (size_t k = 0; k < awake.size(); ++k) slot[awake[k]] = static_cast<int>(k + 1);

@@ -230,6 +230,10 @@ void prepare_rows(WorldImpl& w, SolverScratch& s, double h, size_t first, size_t
   // Contacts against immovable bodies take the push-out alone: twice as stiff.
   const Softness static_soft = make_softness(2.0 * set.contact_hertz, set.contact_damping_ratio, h);
   const bool rigid = set.contact_hertz == 0.0;
+  // Impulses are kept per world substep (budget.cpp): an island run with more substeps starts
+  // from its share of them.
+  const bool rescale = set.substeps != w.budget.base_substeps;
+  const double share = static_cast<double>(w.budget.base_substeps) / set.substeps;
   for (size_t k = first; k < end; ++k) {
     const Contact& c = w.contacts[s.contacts[k]];
     const Body& body_a = w.bodies[c.body_a];
@@ -266,6 +270,10 @@ void prepare_rows(WorldImpl& w, SolverScratch& s, double h, size_t first, size_t
       p.tangent_mass = kt > 0.0 ? 1.0 / kt : 0.0;
       p.normal_impulse = set.warm_starting ? mp.normal_impulse : 0.0;
       p.tangent_impulse = set.warm_starting ? mp.tangent_impulse : 0.0;
+      if (rescale) {
+        p.normal_impulse *= share;
+        p.tangent_impulse *= share;
+      }
       p.max_normal_impulse = 0.0;
       extra.approach_speed[i] = normal_speed(a, b, p, nx, ny);
       extra.pseudo_impulse[i] = 0.0;
@@ -613,12 +621,19 @@ void apply_restitution(SolverScratch& s, double threshold) {
 }
 
 void store_impulses(WorldImpl& w, const SolverScratch& s, size_t first, size_t end) {
+  // Per world substep, whatever this group ran (budget.cpp).
+  const int substeps = w.settings.substeps, base = w.budget.base_substeps;
+  const double per_base = static_cast<double>(substeps) / base;
   for (size_t k = first; k < end; ++k) {
     const ContactRow& row = s.rows[k];
     Manifold& m = w.contacts[s.extras[k].contact].manifold;
     for (int i = 0; i < row.count; ++i) {
       m.points[i].normal_impulse = row.points[i].normal_impulse;
       m.points[i].tangent_impulse = row.points[i].tangent_impulse;
+      if (substeps != base) {
+        m.points[i].normal_impulse *= per_base;
+        m.points[i].tangent_impulse *= per_base;
+      }
     }
   }
 }
@@ -750,6 +765,7 @@ void WorldImpl::prepare_reference_tick() {
 
   SolverScratch& s = solver_scratch;
   const double h = settings.dt;
+  budget.base_substeps = settings.substeps;  // impulses as kept, not rescaled
   load_bodies(*this, awake, s);
   gather_contacts(*this, awake, &s.contacts);
   prepare(*this, s, h, nullptr);

@@ -401,6 +401,7 @@ Status World::restore(const WorldSnapshot& s) {
     sh.proxy = sh.alive ? w.tree.create_proxy(s.shape_boxes[si], si, sh.filter.category_bits,
                                               sh.filter.mask_bits)
                         : kNullIndex;
+    if (sh.alive) w.set_shape_thickness(static_cast<int>(si));
   }
   std::unique_ptr<WorldImpl> previous = std::move(impl_);
   impl_ = std::move(fresh);

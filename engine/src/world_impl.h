@@ -57,6 +57,11 @@ class WorldImpl {
   };
   std::vector<MassSums> mass_sums;
   static void add_mass_terms(MassSums& sums, const Shape& shape);
+  // Each shape's thickness (geometry_thickness), indexed like `shapes`, for the contact
+  // budgets. Derived from the geometry, which never changes, so not state: set when a shape is
+  // added and recomputed by restore.
+  std::vector<double> shape_thickness;
+  void set_shape_thickness(int shape);
   // Work done by edits since the world was built or restored (World::edit_work): shapes and
   // joints created, broad-phase leaves visited and bodies woken. Not state.
   uint64_t edit_work = 0;
@@ -146,6 +151,10 @@ class WorldImpl {
   // Splits the awake bodies into budget groups (budget.cpp); false when all keep the
   // world's substeps.
   bool plan_budgets(const std::vector<int>& awake_sorted);
+  // plan_budgets' joint part: joins the joint components in scratch_parent and, unless
+  // `gravity` is 0 (joint budgets off), sets each component root's need in budget.need; true
+  // when one needs more than the world's substeps.
+  bool plan_joint_needs(const std::vector<int>& awake_sorted, double gravity);
   // The reference solver's start of a tick (reference.cpp): what World::step does before its
   // first velocity pass, with one substep of dt: broad phase, collision, the awake set in id
   // order (scratch_awake), solver bodies with the applied forces integrated, contact and joint
@@ -166,8 +175,12 @@ class WorldImpl {
     int islands = 0;       // islands given more substeps than the world's, this tick
     int max_substeps = 0;  // the most substeps any island ran this tick
     std::vector<BudgetGroup> groups;
-    std::vector<double> mass, weakest;  // per joint component root
+    std::vector<double> mass, weakest;   // per joint component root, then island weights
+    std::vector<double> pressed, reach;  // per body: its contacts' worst (budget.cpp)
     std::vector<int> need, island_need;
+    // The world's substeps while a group is solved with its own: contact impulses are kept
+    // between ticks per substep of this length, whatever the island's budget (budget.cpp).
+    int base_substeps = 0;
   } budget;
   ColouredContacts coloured_contacts;
   // The threads the step may use (World::set_threads); null: the caller's thread alone. Owned
@@ -197,6 +210,12 @@ inline int edge_side(int edge_key) {
 
 // The substeps an island predicted to give `give` metres runs with (budget.cpp).
 int budget_substeps(const WorldSettings& settings, double give);
+// The substeps an island whose contacts are predicted to be pressed in by `ratio` of the
+// thinner shape's thickness runs with (budget.cpp).
+int contact_budget_substeps(const WorldSettings& settings, double ratio);
+// The narrowest width of a shape across any direction (diameter, plate thickness); 0 for a
+// segment, which has none (budget.cpp).
+double geometry_thickness(const Geometry& geometry);
 // The velocity iterations per substep of an island run with `budget` substeps instead of the
 // world's `substeps` (`iterations` each): iterations * substeps / budget, at least 1.
 int budget_iterations(int iterations, int substeps, int budget);

@@ -107,6 +107,8 @@ std::string diff_settings(const WorldSettings& a, const WorldSettings& b) {
   RETURN_IF_DIFF(diff_value(p + ".max_substeps", a.max_substeps, b.max_substeps));
   RETURN_IF_DIFF(
       diff_double(p + ".joint_give_tolerance", a.joint_give_tolerance, b.joint_give_tolerance));
+  RETURN_IF_DIFF(diff_double(p + ".contact_give_tolerance", a.contact_give_tolerance,
+                             b.contact_give_tolerance));
   RETURN_IF_DIFF(
       diff_value(p + ".position_iterations", a.position_iterations, b.position_iterations));
   RETURN_IF_DIFF(diff_value(p + ".split_impulses", a.split_impulses, b.split_impulses));
@@ -241,6 +243,7 @@ SceneDef AwkwardScene() {
   s.joint_damping_ratio = 0.7;
   s.max_substeps = 9;
   s.joint_give_tolerance = 0.1 + 0.2;  // not a short decimal
+  s.contact_give_tolerance = 0.7 / 3.0;
   s.position_iterations = 0;
   s.split_impulses = true;
   s.baumgarte = 1.0 / 3.0;

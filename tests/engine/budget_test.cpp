@@ -137,6 +137,120 @@ TEST(Budget, RestoredAndThreadedWorldsContinueBitForBit) {
   EXPECT_EQ(w.state_hash(), threaded.state_hash());
 }
 
+// Contacts follow the same rule against contact_give_tolerance (half the thinner shape's
+// thickness): none at or below it, S sqrt(ratio / tol) rounded up above it, capped.
+TEST(Budget, ContactSubstepsGrowWithTheSquareRootOfTheCompression) {
+  WorldSettings s;  // 4 substeps, contact tolerance 0.5, cap 16
+  EXPECT_EQ(contact_budget_substeps(s, 0.0), 4);
+  EXPECT_EQ(contact_budget_substeps(s, 0.5), 4);
+  EXPECT_EQ(contact_budget_substeps(s, 2.0), 8);
+  EXPECT_EQ(contact_budget_substeps(s, 2.0 + 1e-9), 9);
+  EXPECT_EQ(contact_budget_substeps(s, 4.5), 12);
+  EXPECT_EQ(contact_budget_substeps(s, 1e6), 16);
+}
+
+// A shape's thickness is its narrowest width: a circle's or capsule's diameter, a plate's
+// thickness however it is turned, a rounded polygon's core plus twice its radius, a
+// triangle's least height; a segment has none.
+TEST(Budget, ThicknessIsTheNarrowestWidth) {
+  EXPECT_DOUBLE_EQ(geometry_thickness(Circle{Vec2(1.0, 2.0), 0.3}), 0.6);
+  EXPECT_DOUBLE_EQ(geometry_thickness(Capsule{Vec2(-1.0, 0.0), Vec2(1.0, 0.0), 0.1}), 0.2);
+  EXPECT_NEAR(geometry_thickness(make_box(1.0, 0.001)), 0.002, 1e-15);
+  EXPECT_NEAR(geometry_thickness(make_offset_box(1.0, 0.001, Vec2(3.0, 1.0), 0.7)), 0.002, 1e-12);
+  Polygon rounded = make_box(0.5, 0.25);
+  rounded.radius = 0.01;
+  EXPECT_NEAR(geometry_thickness(rounded), 0.52, 1e-15);
+  const Vec2 corners[] = {Vec2(0.0, 0.0), Vec2(2.0, 0.0), Vec2(0.0, 1.0)};
+  Polygon triangle;
+  ASSERT_TRUE(make_polygon(corners, 0.0, &triangle).ok());
+  EXPECT_NEAR(geometry_thickness(triangle), 2.0 / std::sqrt(5.0), 1e-12);  // 2 area / hypotenuse
+  EXPECT_EQ(geometry_thickness(Segment{}), 0.0);
+}
+
+// HARD_CASES 20's planks (2 mm) get a contact budget from the load of the stack: each contact
+// would be pressed in by several times a plank's thickness / 2. A stack of 1 m boxes carrying
+// far more weight, the mass-ratio pyramid and the bottom of a 20-box stack, keep the world's
+// substeps: millimetres are nothing to a 1 m box. Without gravity there is no weight to carry
+// and no contact budget.
+TEST(Budget, ThinPlanksGetAContactBudgetAndBoxStacksDoNot) {
+  World planks = build("thin_planks");
+  for (int i = 0; i < 60; ++i) planks.step();
+  EXPECT_EQ(planks.metrics().budget_islands, 1);
+  EXPECT_GE(planks.metrics().max_substeps, 8);
+  for (const char* name : {"vertical_stack", "mass_ratio_100", "many_pyramids"}) {
+    World w = build(name);
+    int budgets = 0;
+    for (int i = 0; i < 120; ++i) {
+      w.step();
+      budgets += w.metrics().budget_islands;
+    }
+    EXPECT_EQ(budgets, 0) << name;
+  }
+  SceneDef weightless = scene("thin_planks");
+  weightless.settings.gravity = Vec2::Zero();
+  for (SceneBody& b : weightless.bodies) b.def.linear_velocity = Vec2(0.0, -0.5);
+  World w = build(weightless);
+  int budgets = 0;
+  for (int i = 0; i < 60; ++i) {
+    w.step();
+    budgets += w.metrics().budget_islands;
+  }
+  EXPECT_EQ(budgets, 0);
+}
+
+// The contact budget reads last tick's impulses, kept per world substep whatever the island
+// ran, so a world restored mid-run continues bit for bit, as does one on 2 threads.
+TEST(Budget, ContactBudgetsContinueBitForBitAfterARestoreAndOnThreads) {
+  World w = build("thin_planks");
+  for (int i = 0; i < 20; ++i) w.step();
+  World copy;
+  ASSERT_TRUE(copy.restore(w.snapshot()).ok());
+  World threaded = build("thin_planks");
+  ASSERT_TRUE(threaded.set_threads(2).ok());
+  for (int i = 0; i < 20; ++i) threaded.step();
+  for (int i = 0; i < 60; ++i) {
+    w.step();
+    copy.step();
+    threaded.step();
+  }
+  EXPECT_EQ(w.metrics().budget_islands, 1);
+  EXPECT_EQ(w.state_hash(), copy.state_hash());
+  EXPECT_EQ(w.state_hash(), threaded.state_hash());
+}
+
+// A body driven by a motor against a body of infinite mass moves as a kinematic body would
+// (with torque to spare), so its island keeps the world's substeps as one touching a kinematic
+// body does: the tumbler's 2025 boxes in their motor-driven drum get no contact budget, and
+// the very heavy chain, hung from a pin that is also a motor, gets no joint budget.
+TEST(Budget, IslandsDrivenByAMotorAgainstTheGroundKeepTheWorldsSubsteps) {
+  World tumbler = build("tumbler");
+  int budgets = 0;
+  for (int i = 0; i < 120; ++i) {
+    tumbler.step();
+    budgets += tumbler.metrics().budget_islands;
+  }
+  EXPECT_EQ(budgets, 0);
+
+  SceneDef s = scene("very_heavy_chain");
+  World free_pin = build(s);
+  free_pin.step();
+  EXPECT_EQ(free_pin.metrics().budget_islands, 1);
+  int motors = 0;
+  for (SceneJoint& j : s.joints) {
+    auto* revolute = std::get_if<RevoluteJointDef>(&j.def);
+    const bool to_ground = s.bodies[j.body_a].def.type == BodyType::kStatic ||
+                           s.bodies[j.body_b].def.type == BodyType::kStatic;
+    if (revolute == nullptr || !to_ground) continue;
+    revolute->enable_motor = true;
+    revolute->max_motor_torque = 1e9;
+    ++motors;
+  }
+  ASSERT_EQ(motors, 1);
+  World driven = build(s);
+  driven.step();
+  EXPECT_EQ(driven.metrics().budget_islands, 0);
+}
+
 // Bad settings are refused with the field named.
 TEST(Budget, SettingsOutOfRangeAreRefused) {
   WorldSettings s;
@@ -149,6 +263,12 @@ TEST(Budget, SettingsOutOfRangeAreRefused) {
   st = validate_settings(s);
   EXPECT_FALSE(st.ok());
   EXPECT_NE(st.message().find("settings.joint_give_tolerance"), std::string::npos) << st.message();
+  s = WorldSettings{};
+  s.contact_give_tolerance = -1.0;
+  st = validate_settings(s);
+  EXPECT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("settings.contact_give_tolerance"), std::string::npos)
+      << st.message();
 }
 
 }  // namespace

@@ -125,7 +125,7 @@ struct WorldSettings {
   int substeps = 4;                     // >= 1
   int velocity_iterations = 2;          // >= 1: passes over all rows per substep
   int relax_iterations = 1;             // >= 0: passes without position feedback per substep
-  double contact_hertz = 45.0;          // Hz, >= 0: stiffness of soft contacts (0: rigid)
+  double contact_hertz = 50.0;          // Hz, >= 0: stiffness of soft contacts (0: rigid)
   double contact_damping_ratio = 10.0;  // >= 0: damping of soft contacts
   int position_iterations = 3;          // >= 0: pseudo-velocity passes (split impulses only)
   bool split_impulses = false;          // rigid mode: position error fixed on pseudo velocities
@@ -140,10 +140,13 @@ struct WorldSettings {
                                         // (0: rigid Baumgarte with `baumgarte`, no slop)
   double joint_damping_ratio = 2.0;     // >= 0
   // Budgets (budget.cpp): an island whose soft joints would give more than
-  // joint_give_tolerance under the weight they carry runs more substeps, with its joints
-  // stiffer in proportion, up to max_substeps (<= substeps: never).
+  // joint_give_tolerance under the weight they carry, or whose soft contacts would be pressed
+  // in by more than contact_give_tolerance of the thinner shape's thickness under the loads
+  // they carried last tick, runs more substeps, with its joints and contacts stiffer in
+  // proportion, up to max_substeps (<= substeps: never).
   int max_substeps = 16;                // >= 1
   double joint_give_tolerance = 0.008;  // m, > 0
+  double contact_give_tolerance = 0.5;  // fraction of the thinner shape's thickness, > 0
   bool warm_starting = true;            // start each substep from the last one's impulses
   bool block_solver = true;             // rigid mode: two-point normal rows solved together
 
