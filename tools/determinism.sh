@@ -2,8 +2,10 @@
 # Determinism across builds: the same scenes, stepped by a gcc -O0 build and a clang -O2 build of
 # the `fulcrum` CLI, must end with the same state hash as the main build (gcc -O2); and the
 # golden scenarios (tests/golden: edits between ticks, sleeping, every joint type) must give the
-# main build's fulcrum_golden output line for line, i.e. the same hash at every tick. Run by
-# tools/test.sh after the test suite; builds land in build-det-gcc-O0/ and build-det-clang-O2/.
+# main build's fulcrum_golden output line for line, i.e. the same hash at every tick; and a bot
+# player of each variant follows a multiplayer session on a main-build server for 10 000 ticks,
+# checking every confirmed tick's hash. Run by tools/test.sh after the test suite; builds land in
+# build-det-gcc-O0/ and build-det-clang-O2/.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 
@@ -84,5 +86,50 @@ for variant in main gcc-O0 clang-O2; do
       "$golden_reference" "$got" "$golden_bin" --simd "$simd" --threads "$threads"
   done
 done
+# A multiplayer session across builds: a server of the main build (gcc -O2) and two bot players,
+# one built by each variant, each stepping its own copy of the world with every confirmed tick
+# and checking the server's state hash at each (`fulcrum session bot` exits 1 at the first that
+# differs). Turn by turn (--seal all-inputs), so every tick waits for both bots' inputs.
+session_ticks=${FULCRUM_DET_SESSION_TICKS:-10000}
+server_log=$(mktemp)
+"$FULCRUM_BUILD/bin/fulcrum-server" --listen 127.0.0.1:0 > "$server_log" 2>&1 &
+server=$!
+trap 'kill "$server" 2> /dev/null || true; rm -f "$server_log"' EXIT
+address=""
+for _ in $(seq 100); do
+  address=$(grep -oE 'listening on [0-9.]+:[0-9]+' "$server_log" | awk '{print $3}' || true)
+  [ -n "$address" ] && break
+  sleep 0.1
+done
+cli="$FULCRUM_BUILD/bin/fulcrum"
+if [ -z "$address" ] ||
+  ! "$cli" create --server "$address" --scene "$FULCRUM_ROOT/scenes/pyramid.json" > /dev/null ||
+  ! "$cli" session open 1 --server "$address" --players 2 --seal all-inputs > /dev/null; then
+  cat "$server_log"
+  echo "determinism: could not open the session on a main-build server"
+  failed=$((failed + 1))
+else
+  bot_pids=()
+  body=210
+  for variant in gcc-O0 clang-O2; do
+    "$FULCRUM_ROOT/build-det-$variant/bin/fulcrum" session bot 1 --server "$address" \
+      --bodies "$body" --name "$variant" --ticks "$session_ticks" \
+      > "$FULCRUM_ROOT/build-det-$variant/session-bot.log" 2>&1 &
+    bot_pids+=($!)
+    body=$((body - 1))
+  done
+  for variant in gcc-O0 clang-O2; do
+    if wait "${bot_pids[0]}"; then
+      passed=$((passed + 1))
+      tail -n 1 "$FULCRUM_ROOT/build-det-$variant/session-bot.log" | sed "s/^/determinism: $variant bot: /"
+    else
+      tail -n 5 "$FULCRUM_ROOT/build-det-$variant/session-bot.log"
+      echo "determinism: the $variant bot lost the gcc -O2 server's hashes"
+      failed=$((failed + 1))
+    fi
+    bot_pids=("${bot_pids[@]:1}")
+  done
+fi
+
 echo "determinism: $passed passed, $failed failed"
 [ "$failed" -eq 0 ]

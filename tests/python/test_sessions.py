@@ -1,10 +1,12 @@
 """Multiplayer sessions from Python: two players take turns, a spectator sees every confirmed
-tick with each player's input, and a player cannot push another player's body."""
+tick with each player's input, a player cannot push another player's body, and reported hashes
+are checked against the server's."""
 
 import grpc
 import pytest
 
 import fulcrum
+from fulcrum.v1 import session_pb2
 
 TOP, BELOW = 210, 209  # the pyramid's top two boxes (scene indices)
 
@@ -50,3 +52,35 @@ def test_a_player_cannot_push_another_players_body(client, scenes):
         with pytest.raises(fulcrum.FulcrumError) as error:
             world.open_session(seal="sometimes")
         assert error.value.field == "options.seal"
+
+
+def test_reported_hashes_match_and_a_wrong_one_is_named_by_its_tick(client, scenes):
+    with client.create_world(scenes / "pyramid.json") as world:
+        world.open_session(max_players=1, seal="all_inputs")
+        one = world.join(bodies=[TOP])
+        with world.watch_session() as events:
+            next(events)
+            for tick in range(6):
+                world.send_input(one, tick, push(TOP, 0.5))
+            hashes = [next(events).confirmed.tick.state_hash for _ in range(6)]
+        HashVerdict = session_pb2.HashVerdict
+        reply = world.report_hash(one, 1, hashes)
+        assert reply.verdict == HashVerdict.HASH_VERDICT_MATCH
+        assert (reply.checked_from, reply.checked_through) == (1, 6)
+        wrong = list(hashes)
+        wrong[2] ^= 1  # the hash after tick 3
+        reply = world.report_hash(one, 1, wrong)
+        assert reply.verdict == HashVerdict.HASH_VERDICT_DESYNC
+        assert reply.divergent_tick == 3
+        assert (reply.server_hash, reply.client_hash) == (hashes[2], wrong[2])
+        # With the copy's snapshot of the divergent tick (here the server's own world at tick 6,
+        # so nothing differs), the reply compares the two.
+        reply = world.report_hash(one, 6, [hashes[5] ^ 1], snapshot=world.snapshot())
+        assert reply.verdict == HashVerdict.HASH_VERDICT_DESYNC and reply.divergent_tick == 6
+        assert reply.first_difference == ""
+        with pytest.raises(fulcrum.FulcrumError) as error:
+            world.report_hash(one, 1, [2**64])
+        assert error.value.field == "hashes[0]"
+        with pytest.raises(fulcrum.FulcrumError) as error:
+            world.report_hash(one, 0, hashes)
+        assert error.value.field == "first_tick"

@@ -3,7 +3,9 @@
 A world opened as a session has players; each owns some bodies and joints and sends inputs
 for ticks ahead of the world, which the server seals tick by tick and streams to every
 watcher. Python clients play and watch (bots, displays, CI checks); they do not step a copy
-of the world themselves, so they join without a determinism fingerprint.
+of the world themselves, so they join without a determinism fingerprint, but they can report
+the hashes a copy stepped elsewhere reached (report_hash) and learn the first tick and field
+that differ.
 """
 
 from typing import NamedTuple
@@ -94,6 +96,23 @@ class SessionEvents:
     def __exit__(self, exc_type, exc, traceback):
         self.close()
         return False
+
+
+def report_hash(world, player, first_tick, hashes, snapshot_file, resync):
+    if isinstance(first_tick, bool) or not isinstance(first_tick, int) or first_tick < 1:
+        raise invalid_argument("first_tick", f"must be a whole number >= 1 (got {first_tick!r})")
+    hashes = list(hashes)
+    if not 1 <= len(hashes) <= 1024:
+        raise invalid_argument("hashes", f"1 to 1024 hashes expected (got {len(hashes)})")
+    for i, h in enumerate(hashes):
+        if isinstance(h, bool) or not isinstance(h, int) or not 0 <= h < 2**64:
+            raise invalid_argument(f"hashes[{i}]", f"must be a 64-bit unsigned hash (got {h!r})")
+    request = session_pb2.ReportHashRequest(world_id=world.id, player_id=player.player_id,
+                                            player_secret=player.secret, first_tick=first_tick,
+                                            hashes=hashes, resync=bool(resync))
+    if snapshot_file is not None:
+        request.snapshot.CopyFrom(snapshot_file)
+    return world.client._call("ReportHash", request)
 
 
 def watch(world, player):

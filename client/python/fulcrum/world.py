@@ -127,6 +127,16 @@ class World(EditMethods):
         joints. Returns the SendInputReply (`duplicate` when one was held for the tick)."""
         return sessions.send_input(self, player, tick, edits)
 
+    def report_hash(self, player, first_tick, hashes, snapshot=None, resync=False):
+        """Reports the state hashes a copy of this world reached (hashes[i] after tick
+        first_tick + i; 1 to 1024 of them) as `player`. Returns the ReportHashReply: `verdict`
+        MATCH, DESYNC (`divergent_tick`, `server_hash`, `client_hash`) or UNCHECKED (the ticks
+        are gone from the server's window). With the copy's `snapshot` (a Snapshot or its file
+        bytes) of the divergent tick, `first_difference` names the first field that differs;
+        `resync` sends the player's watches a fresh start on a desync."""
+        snapshot_file = None if snapshot is None else _snapshot_file(snapshot)
+        return sessions.report_hash(self, player, first_tick, hashes, snapshot_file, resync)
+
     def watch_session(self, player=None):
         """The session's events as an iterator (SessionEvents): the start, then every confirmed
         tick. As `player`, the player is present until the iterator is closed."""
