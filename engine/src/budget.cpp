@@ -37,6 +37,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "world_impl.h"
 
@@ -103,6 +104,56 @@ void WorldImpl::set_shape_thickness(int shape) {
 
 int budget_iterations(int iterations, int substeps, int budget) {
   return std::max(1, iterations * substeps / budget);
+}
+
+std::optional<ContactPress> WorldImpl::contact_press() const {
+  const double g = std::sqrt(settings.gravity.x() * settings.gravity.x() +
+                             settings.gravity.y() * settings.gravity.y());
+  if (settings.max_substeps <= settings.substeps || settings.contact_hertz == 0.0 || g == 0.0) {
+    return std::nullopt;
+  }
+  const double omega = 2.0 * 3.14159265358979323846 * settings.contact_hertz;
+  ContactPress press;
+  press.per_impulse = settings.substeps / settings.dt;
+  press.per_load = 1.0 / (omega * omega);
+  press.rest_speed2 = g * settings.dt * g * settings.dt;
+  return press;
+}
+
+double WorldImpl::press_contact(int ci, const ContactPress& press) {
+  contact_pressed[ci] = contact_reach[ci] = 0.0;
+  const Contact& c = contacts[ci];
+  if (c.sensor || c.manifold.count == 0) return 0.0;
+  const Body& a = bodies[c.body_a];
+  const Body& b = bodies[c.body_b];
+  // Only loads at rest count: a body faster than gravity makes it in one tick is hitting or
+  // being pushed, not resting on its contacts.
+  if (a.v.squaredNorm() > press.rest_speed2 || b.v.squaredNorm() > press.rest_speed2) return 0.0;
+  double thickness = std::numeric_limits<double>::infinity();
+  if (a.is_dynamic()) thickness = shape_thickness[c.shape_a];
+  if (b.is_dynamic()) thickness = std::min(thickness, shape_thickness[c.shape_b]);
+  if (!(thickness > 0.0) || thickness == std::numeric_limits<double>::infinity()) return 0.0;
+  const double ima = a.is_dynamic() ? a.inv_mass : 0.0;
+  const double imb = b.is_dynamic() ? b.inv_mass : 0.0;
+  const double iia = a.is_dynamic() ? a.inv_inertia : 0.0;
+  const double iib = b.is_dynamic() ? b.inv_inertia : 0.0;
+  // Against a body of infinite mass the solver's spring is twice as fast: a quarter of the
+  // compression.
+  const double scale = press.per_load / thickness * (ima == 0.0 || imb == 0.0 ? 0.25 : 1.0);
+  const Vec2 normal = c.manifold.normal;
+  double pressed = 0.0, reach = 0.0;
+  for (int i = 0; i < c.manifold.count; ++i) {
+    const ManifoldPoint& p = c.manifold.points[i];
+    if (!(p.normal_impulse > 0.0)) continue;
+    const double rna = cross(p.point - a.center, normal);
+    const double rnb = cross(p.point - b.center, normal);
+    const double k_inv = ima + imb + iia * rna * rna + iib * rnb * rnb;
+    pressed = std::max(pressed, p.normal_impulse * press.per_impulse * k_inv * scale);
+    reach = std::max(reach, k_inv * scale);
+  }
+  contact_pressed[ci] = pressed;
+  contact_reach[ci] = reach;
+  return pressed;
 }
 
 bool WorldImpl::plan_joint_needs(const std::vector<int>& awake, double g) {
@@ -172,58 +223,28 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   // bodies are always solved in one group.
   more = plan_joint_needs(awake, joint_budgets ? g : 0.0);
 
-  // Contacts at rest: each body's worst point, counted on the side of body A when both bodies
-  // are awake and dynamic: its compression over thickness from last tick's load (`pressed`),
-  // and per newton of load (`reach`), which bounds the first by the island's weight below.
+  // Contacts at rest: each body's worst point (press_contact computed each contact's as the
+  // step collided it): its compression over thickness from last tick's load (`pressed`), and
+  // per newton of load (`reach`), which bounds the first by the island's weight below. Skipped
+  // when no contact of the step asks for more substeps.
   std::vector<double>& pressed = budget.pressed;
   std::vector<double>& reach = budget.reach;
   pressed.assign(n, 0.0);
   reach.assign(n, 0.0);
-  const double omega_c = 2.0 * 3.14159265358979323846 * settings.contact_hertz;
-  if (contact_budgets) {
-    const double per_impulse = settings.substeps / settings.dt;  // load of an impulse kept
-    const double per_load = 1.0 / (omega_c * omega_c);
-    // Only loads at rest count: a body faster than gravity makes it in one tick is hitting
-    // or being pushed, not resting on its contacts.
-    const double rest_speed2 = g * settings.dt * g * settings.dt;
-    bool any = false;
+  if (contact_budgets && budget.most_pressed > settings.contact_give_tolerance) {
     for (int k = 0; k < n; ++k) {
       const int bi = awake[k];
       if (!bodies[bi].is_dynamic()) continue;
       for (int e = bodies[bi].contact_list; e != kNullIndex;) {
-        const Contact& c = contacts[edge_contact(e)];
+        const int ci = edge_contact(e);
+        const Contact& c = contacts[ci];
         e = c.edges[edge_side(e)].next;
-        if (!c.touching || c.sensor || c.manifold.count == 0) continue;
-        const Body& o = bodies[c.body_a == bi ? c.body_b : c.body_a];
-        if (o.is_dynamic() && o.awake && c.body_a != bi) continue;
-        const Body& a = bodies[c.body_a];
-        const Body& b = bodies[c.body_b];
-        if (a.v.squaredNorm() > rest_speed2 || b.v.squaredNorm() > rest_speed2) continue;
-        double thickness = std::numeric_limits<double>::infinity();
-        if (a.is_dynamic()) thickness = shape_thickness[c.shape_a];
-        if (b.is_dynamic()) thickness = std::min(thickness, shape_thickness[c.shape_b]);
-        if (!(thickness > 0.0)) continue;
-        const double ima = a.is_dynamic() ? a.inv_mass : 0.0;
-        const double imb = b.is_dynamic() ? b.inv_mass : 0.0;
-        const double iia = a.is_dynamic() ? a.inv_inertia : 0.0;
-        const double iib = b.is_dynamic() ? b.inv_inertia : 0.0;
-        // Against a body of infinite mass the solver's spring is twice as fast: a quarter of
-        // the compression.
-        const double scale = per_load / thickness * (ima == 0.0 || imb == 0.0 ? 0.25 : 1.0);
-        const Vec2 normal = c.manifold.normal;
-        for (int i = 0; i < c.manifold.count; ++i) {
-          const ManifoldPoint& p = c.manifold.points[i];
-          if (!(p.normal_impulse > 0.0)) continue;
-          const double rna = cross(p.point - a.center, normal);
-          const double rnb = cross(p.point - b.center, normal);
-          const double k_inv = ima + imb + iia * rna * rna + iib * rnb * rnb;
-          pressed[k] = std::max(pressed[k], p.normal_impulse * per_impulse * k_inv * scale);
-          reach[k] = std::max(reach[k], k_inv * scale);
-        }
+        if (!c.touching || c.sensor) continue;
+        pressed[k] = std::max(pressed[k], contact_pressed[ci]);
+        reach[k] = std::max(reach[k], contact_reach[ci]);
       }
-      any = any || contact_budget_substeps(settings, pressed[k]) > settings.substeps;
+      more = more || contact_budget_substeps(settings, pressed[k]) > settings.substeps;
     }
-    more = more || any;
   }
   if (!more) return false;
 

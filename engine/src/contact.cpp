@@ -109,6 +109,11 @@ void WorldImpl::destroy_body_contacts(int bi) {
 }
 
 void WorldImpl::collide() {
+  budget.most_pressed = 0.0;
+  if (contact_press()) {
+    contact_pressed.resize(contacts.size(), 0.0);
+    contact_reach.resize(contacts.size(), 0.0);
+  }
   // Bodies woken by a touch in one round bring their own contacts into the next round, until
   // no more wake.
   size_t first_new = 0;
@@ -184,12 +189,23 @@ void WorldImpl::collide_round(size_t first, size_t end) {
   };
   constexpr size_t kContactsPerChunk = 64;
   const int chunks = static_cast<int>((list.size() + kContactsPerChunk - 1) / kContactsPerChunk);
+  // With contact budgets on, each refreshed contact's load figures (budget.cpp), and each
+  // chunk's largest (a maximum, the same in any order).
+  const std::optional<ContactPress> press = contact_press();
+  std::vector<double>& chunk_pressed = scratch_chunk_pressed;
+  chunk_pressed.assign(press ? chunks : 0, 0.0);
   auto chunk = [&](int i) {
     const size_t lo = static_cast<size_t>(i) * kContactsPerChunk;
     const size_t hi = std::min(lo + kContactsPerChunk, list.size());
-    for (size_t k = lo; k < hi; ++k) refresh(k);
+    for (size_t k = lo; k < hi; ++k) {
+      refresh(k);
+      if (press && overlap[k]) {
+        chunk_pressed[i] = std::max(chunk_pressed[i], press_contact(list[k], *press));
+      }
+    }
   };
   run_chunks(chunks >= 4 ? pool : nullptr, chunks, chunk, true);
+  for (double p : chunk_pressed) budget.most_pressed = std::max(budget.most_pressed, p);
 
   // Then, in id order: boxes that parted destroy their contact; touches wake and report.
   for (size_t k = 0; k < list.size(); ++k) {

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -19,6 +20,13 @@
 #include "pair_set.h"
 
 namespace fulcrum {
+
+// The constants of the contact budgets' prediction for one step (budget.cpp).
+struct ContactPress {
+  double per_impulse = 0.0;  // the load of an impulse kept per world substep: S / dt
+  double per_load = 0.0;     // compression per unit of K times load: 1 / omega_c^2
+  double rest_speed2 = 0.0;  // (|g| dt)^2: faster bodies are not at rest on their contacts
+};
 
 class WorldImpl {
  public:
@@ -62,6 +70,13 @@ class WorldImpl {
   // added and recomputed by restore.
   std::vector<double> shape_thickness;
   void set_shape_thickness(int shape);
+  // Per contact id, what the contact budgets read (budget.cpp), computed by press_contact as
+  // collide refreshes each contact of the awake bodies: the worst point's predicted compression
+  // over the thinner shape's thickness, and the same per newton of load. Scratch, not state.
+  std::vector<double> contact_pressed, contact_reach;
+  // The constants press_contact needs, or none when contact budgets are off.
+  std::optional<ContactPress> contact_press() const;
+  double press_contact(int contact, const ContactPress& press);
   // Work done by edits since the world was built or restored (World::edit_work): shapes and
   // joints created, broad-phase leaves visited and bodies woken. Not state.
   uint64_t edit_work = 0;
@@ -164,7 +179,8 @@ class WorldImpl {
 
   // Scratch reused every step (never part of the state).
   std::vector<int> scratch_contacts;
-  std::vector<uint8_t> scratch_overlap;  // collide: whether each contact's boxes still overlap
+  std::vector<uint8_t> scratch_overlap;       // collide: whether each contact's boxes still overlap
+  std::vector<double> scratch_chunk_pressed;  // collide: each chunk's largest contact_pressed
   std::vector<int> scratch_awake;
   SolverScratch solver_scratch;
   struct BudgetGroup {
@@ -177,6 +193,7 @@ class WorldImpl {
     std::vector<BudgetGroup> groups;
     std::vector<double> mass, weakest;   // per joint component root, then island weights
     std::vector<double> pressed, reach;  // per body: its contacts' worst (budget.cpp)
+    double most_pressed = 0.0;           // the largest contact_pressed of this step
     std::vector<int> need, island_need;
     // The world's substeps while a group is solved with its own: contact impulses are kept
     // between ticks per substep of this length, whatever the island's budget (budget.cpp).
