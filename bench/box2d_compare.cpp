@@ -373,8 +373,8 @@ std::string markdown(const std::vector<CaseRun>& runs, const Options& o, const H
      << " relax iterations, soft contacts at " << num(d.contact_hertz) << " Hz, joints at "
      << num(d.joint_hertz)
      << " Hz; with per-island budgets (docs/solver.md): an island whose "
-        "joints need it runs up to "
-     << d.max_substeps << " substeps, joints stiffer in proportion.\n";
+        "joints or contacts need it runs up to "
+     << d.max_substeps << " substeps, joints and contacts stiffer in proportion.\n";
   md << "- Fulcrum classic 8 (as `fulcrum_sweep`'s): 1 substep, 8 velocity iterations, no relax "
         "pass, rigid Baumgarte contacts with "
      << num(d.linear_slop)

@@ -736,7 +736,7 @@ std::string markdown(const std::vector<Case>& cases, const std::vector<Row>& row
        "`classic I` = 1 substep, I iterations, no relax, contact_hertz 0 (rigid Baumgarte); "
        "`split I` = the same with split impulses; these run with budgets off (`max_substeps` = "
        "substeps). The default is `adaptive`: soft 4x2 with per-island budgets (an island whose "
-       "joints need it runs more substeps; docs/solver.md, Budgets). "
+       "joints or contacts need it runs more substeps; docs/solver.md, Budgets). "
        "Every other setting is the scene's own (no per-test pinned settings).\n\n";
   o << "## Summary\n\n| # | case | ticks | cheapest passing setting | ms/step | default (adaptive) "
        "| default fails on | Box2D 2.4.1 (8+3): verdict, ms/step |\n"

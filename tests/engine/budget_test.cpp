@@ -111,6 +111,26 @@ TEST(Budget, AnIslandWithoutABudgetIsSolvedAsIfAlone) {
   EXPECT_LT(worst, 0.05);
 }
 
+// Steps `w` (built from `s`) `before` ticks, restores a copy from its snapshot and builds a
+// second world on 2 threads; after `after` more ticks all three have the same state hash, with
+// one island on a budget.
+void expect_restored_and_threaded_copies_agree(const SceneDef& s, World& w, int before, int after) {
+  for (int i = 0; i < before; ++i) w.step();
+  World copy;
+  ASSERT_TRUE(copy.restore(w.snapshot()).ok());
+  World threaded = build(s);
+  ASSERT_TRUE(threaded.set_threads(2).ok());
+  for (int i = 0; i < before; ++i) threaded.step();
+  for (int i = 0; i < after; ++i) {
+    w.step();
+    copy.step();
+    threaded.step();
+  }
+  EXPECT_EQ(w.metrics().budget_islands, 1);
+  EXPECT_EQ(w.state_hash(), copy.state_hash());
+  EXPECT_EQ(w.state_hash(), threaded.state_hash());
+}
+
 // Budgets are part of the step: a world restored from a snapshot mid-swing continues bit for
 // bit, and so does one stepped on 2 threads (a pyramid's 210 boxes beside the chain give the
 // threads a share of the contacts).
@@ -120,21 +140,8 @@ TEST(Budget, RestoredAndThreadedWorldsContinueBitForBit) {
   scenes::add_pyramid(&s, scenes::PyramidOptions{});
   add_very_heavy_chain(&s);
   World w = build(s);
-  for (int i = 0; i < 30; ++i) w.step();
-  World copy;
-  ASSERT_TRUE(copy.restore(w.snapshot()).ok());
-  World threaded = build(s);
-  ASSERT_TRUE(threaded.set_threads(2).ok());
-  for (int i = 0; i < 30; ++i) threaded.step();
-  for (int i = 0; i < 60; ++i) {
-    w.step();
-    copy.step();
-    threaded.step();
-  }
-  EXPECT_EQ(w.metrics().budget_islands, 1);
+  expect_restored_and_threaded_copies_agree(s, w, 30, 60);
   EXPECT_GE(w.metrics().contact_count, 256);  // enough for the threads to share
-  EXPECT_EQ(w.state_hash(), copy.state_hash());
-  EXPECT_EQ(w.state_hash(), threaded.state_hash());
 }
 
 // Contacts follow the same rule against contact_give_tolerance (half the thinner shape's
@@ -201,21 +208,9 @@ TEST(Budget, ThinPlanksGetAContactBudgetAndBoxStacksDoNot) {
 // The contact budget reads last tick's impulses, kept per world substep whatever the island
 // ran, so a world restored mid-run continues bit for bit, as does one on 2 threads.
 TEST(Budget, ContactBudgetsContinueBitForBitAfterARestoreAndOnThreads) {
-  World w = build("thin_planks");
-  for (int i = 0; i < 20; ++i) w.step();
-  World copy;
-  ASSERT_TRUE(copy.restore(w.snapshot()).ok());
-  World threaded = build("thin_planks");
-  ASSERT_TRUE(threaded.set_threads(2).ok());
-  for (int i = 0; i < 20; ++i) threaded.step();
-  for (int i = 0; i < 60; ++i) {
-    w.step();
-    copy.step();
-    threaded.step();
-  }
-  EXPECT_EQ(w.metrics().budget_islands, 1);
-  EXPECT_EQ(w.state_hash(), copy.state_hash());
-  EXPECT_EQ(w.state_hash(), threaded.state_hash());
+  const SceneDef s = scene("thin_planks");
+  World w = build(s);
+  expect_restored_and_threaded_copies_agree(s, w, 20, 60);
 }
 
 // A body driven by a motor against a body of infinite mass moves as a kinematic body would
