@@ -397,7 +397,12 @@ TEST_F(ServerTest, ChangedFramesRebuildTheWorld) {
 // window is full the frames it could not take are coalesced into the newest one. Frames of a
 // 1830-body pyramid are about 130 kB, so 400 of them overflow any window gRPC grants.
 TEST_F(ServerTest, AStalledReaderIsCoalescedAndDoesNotHoldTheWorld) {
-  start();
+  // The reader stalls for as long as the 400 ticks take, which under a sanitizer on a busy
+  // machine can pass the default 10 s after which a stalled reader is ended: this test is about
+  // coalescing, so it gives the reader the largest stall allowed.
+  ServerOptions server;
+  server.limits.max_reader_stall_ms = 86400000;
+  start(server);
   Result<client::WorldSummary> big = client_->create_world_json(
       R"({"name": "big", "settings": {"gravity": {"x": 0, "y": -10}},
           "builders": [{"ground": {"halfWidth": 100}}, {"pyramid": {"base": 60}}]})");
