@@ -1,4 +1,4 @@
-// Per-island solver budgets: substeps where an island's joints need them.
+// Per-island solver budgets: substeps where an island's joints or contacts need them.
 //
 // A soft joint (feedback at joint_hertz, omega = 2 pi joint_hertz) holding a load F between
 // bodies of inverse masses ima and imb gives like a spring of stiffness omega^2 / (ima + imb):
@@ -32,8 +32,9 @@
 // as at most its island's weight, so that an impact's impulse does not buy a budget; without
 // gravity there is no weight and no contact budget.
 //
-// The budget is a pure function of the bodies' masses, the joints, the contacts and their
-// impulses, all state, so snapshots and replays reproduce it.
+// The budget is a pure function of the bodies' masses and velocities, the joints, the contacts
+// and their impulses, all state, so snapshots and replays reproduce it. Islands touching a
+// moving kinematic body, or driven by a motor against a static one, keep the world's substeps.
 #include <algorithm>
 #include <cmath>
 #include <limits>
