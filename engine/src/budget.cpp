@@ -206,7 +206,7 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   const double g = std::sqrt(settings.gravity.x() * settings.gravity.x() +
                              settings.gravity.y() * settings.gravity.y());
   const bool joint_budgets = settings.joint_hertz != 0.0 && g != 0.0;
-  const bool contact_budgets = settings.contact_hertz != 0.0 && g != 0.0;
+  const bool contact_budgets = contact_press().has_value();
   if (!joint_budgets && !contact_budgets) return false;
   const int n = static_cast<int>(awake.size());
   std::vector<int>& slot = solver_scratch.body_slot;  // body -> 1 + position in `awake`

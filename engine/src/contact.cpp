@@ -110,7 +110,8 @@ void WorldImpl::destroy_body_contacts(int bi) {
 
 void WorldImpl::collide() {
   budget.most_pressed = 0.0;
-  if (contact_press()) {
+  const std::optional<ContactPress> press = contact_press();
+  if (press) {
     contact_pressed.resize(contacts.size(), 0.0);
     contact_reach.resize(contacts.size(), 0.0);
   }
@@ -119,12 +120,12 @@ void WorldImpl::collide() {
   size_t first_new = 0;
   while (first_new < awake_bodies.size()) {
     size_t end = awake_bodies.size();
-    collide_round(first_new, end);
+    collide_round(first_new, end, press);
     first_new = end;
   }
 }
 
-void WorldImpl::collide_round(size_t first, size_t end) {
+void WorldImpl::collide_round(size_t first, size_t end, const std::optional<ContactPress>& press) {
   // Gather the contacts of these awake bodies not yet seen this step (each once), in contact
   // id order.
   std::vector<int>& list = scratch_contacts;
@@ -191,7 +192,6 @@ void WorldImpl::collide_round(size_t first, size_t end) {
   const int chunks = static_cast<int>((list.size() + kContactsPerChunk - 1) / kContactsPerChunk);
   // With contact budgets on, each refreshed contact's load figures (budget.cpp), and each
   // chunk's largest (a maximum, the same in any order).
-  const std::optional<ContactPress> press = contact_press();
   std::vector<double>& chunk_pressed = scratch_chunk_pressed;
   chunk_pressed.assign(press ? chunks : 0, 0.0);
   auto chunk = [&](int i) {

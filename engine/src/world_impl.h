@@ -152,7 +152,8 @@ class WorldImpl {
   // Refreshes the manifolds of contacts with an awake body; destroys contacts whose boxes
   // stopped overlapping; reports begin/end events; wakes bodies touched by awake ones.
   void collide();
-  void collide_round(size_t first, size_t end);  // awake_bodies[first, end)
+  // awake_bodies[first, end); with `press`, each contact's load figures too (press_contact).
+  void collide_round(size_t first, size_t end, const std::optional<ContactPress>& press);
   void destroy_body_contacts(int body);
 
   // --- islands and sleep (island.cpp) ---
