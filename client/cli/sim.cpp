@@ -70,6 +70,7 @@ struct RunFigures {
   StepTime asleep;      // ticks that started with every body asleep
   Peak budget_islands;  // islands given more substeps than the world's
   int max_substeps = 0;
+  int max_relax = 0;
 
   void start(const WorldMetrics& m, double dt) {
     first_tick = m.tick;
@@ -86,6 +87,7 @@ struct RunFigures {
     joint_error.offer(m.max_joint_error, m.tick);
     budget_islands.offer(m.budget_islands, m.tick);
     max_substeps = std::max(max_substeps, m.max_substeps);
+    max_relax = std::max(max_relax, m.max_relax_iterations);
     speed.offer(m.max_speed, m.tick);
     final_energy = m.kinetic_energy + m.potential_energy;
     energy_gain.offer(final_energy - initial_energy, m.tick);
@@ -133,8 +135,8 @@ void print_text(const SimReport& r, std::ostream& out) {
       << "max speed:    " << num(m.max_speed) << " m/s\n"
       << "awake bodies: " << m.awake_body_count << "\n"
       << "contacts:     " << m.contact_count << "\n"
-      << "budgets:      " << m.budget_islands << " islands above " << r.substeps
-      << " substeps, up to " << m.max_substeps << "\n";
+      << "budgets:      " << m.budget_islands << " islands; up to " << m.max_substeps
+      << " substeps (world " << r.substeps << "), " << m.max_relax_iterations << " relax passes\n";
   if (r.ticks == 0) return;
   out << "largest over the run (ticks " << run.first_tick + 1 << " to " << m.tick
       << ", measured after each step):\n"
@@ -144,8 +146,9 @@ void print_text(const SimReport& r, std::ostream& out) {
       << (r.joint_count == 0 ? std::string("none (no joints)") : at_tick(run.joint_error, " m"))
       << "\n"
       << "  speed:        " << at_tick(run.speed, " m/s") << "\n"
-      << "  budgets:      " << at_tick(run.budget_islands, " islands") << " above " << r.substeps
-      << " substeps; up to " << run.max_substeps << " substeps\n"
+      << "  budgets:      " << at_tick(run.budget_islands, " islands") << "; up to "
+      << run.max_substeps << " substeps (world " << r.substeps << "), " << run.max_relax
+      << " relax passes\n"
       << "  energy drift: gain " << at_tick(run.energy_gain, " J") << ", loss "
       << at_tick(run.energy_loss, " J") << "; at the end "
       << num(run.final_energy - run.initial_energy) << " J\n"
@@ -188,6 +191,7 @@ void print_json(const SimReport& r, std::ostream& out) {
   w.field("contactCount", m.contact_count);
   w.field("budgetIslands", m.budget_islands);
   w.field("maxSubsteps", m.max_substeps);
+  w.field("maxRelaxIterations", m.max_relax_iterations);
   w.field("jointCount", r.joint_count);
   // Over the run: the largest of each figure after every step, with its tick (null: never
   // above 0).
@@ -200,6 +204,7 @@ void print_json(const SimReport& r, std::ostream& out) {
   peak_fields(w, "maxSpeed", run.speed);
   peak_fields(w, "maxBudgetIslands", run.budget_islands);
   w.field("maxSubsteps", run.max_substeps);
+  w.field("maxRelaxIterations", run.max_relax);
   w.field("initialEnergy", run.initial_energy);
   w.field("finalEnergy", run.final_energy);
   peak_fields(w, "maxEnergyGain", run.energy_gain);

@@ -32,6 +32,14 @@
 // as at most its island's weight, so that an impact's impulse does not buy a budget; without
 // gravity there is no weight and no contact budget.
 //
+// Overlaps recover: a soft contact pushes out at its bias rate times the overlap, capped at
+// max_correction_speed, and the relax passes take the push-out back out of the velocities. A
+// deep overlap at the cap pushes no harder than a shallow one (a jammed packing never finds
+// its balance), and one relax pass leaves part of a push-out shared among many contacts as
+// real speed. So a contact pushed out at the cap while both its bodies are slower than the cap
+// makes its island recover: kRecoveryRelax times the relax passes and kRecoveryCap times the
+// cap. The narrow phase lists such contacts (recovering) as it refreshes them.
+//
 // The budget is a pure function of the bodies' masses and velocities, the joints, the contacts
 // and their impulses, all state, so snapshots and replays reproduce it. Islands touching a
 // moving kinematic body, or driven by a motor against a static one, keep the world's substeps.
@@ -63,6 +71,11 @@ void unite(std::vector<int>& parent, int a, int b) {
 }  // namespace
 
 namespace {
+
+// A recovering island (budget.cpp's header): kRecoveryRelax times the relax passes and
+// kRecoveryCap times the cap on push-out speed.
+constexpr int kRecoveryRelax = 3;
+constexpr double kRecoveryCap = 2.0;
 
 int substeps_for(const WorldSettings& s, double ratio) {
   if (!(ratio > 1.0)) return s.substeps;
@@ -157,6 +170,34 @@ double WorldImpl::press_contact(int ci, const ContactPress& press) {
   return pressed;
 }
 
+std::optional<RecoveryRule> WorldImpl::recovery_rule() const {
+  if (settings.max_substeps <= settings.substeps || settings.contact_hertz == 0.0 ||
+      settings.relax_iterations < 1) {
+    return std::nullopt;
+  }
+  const double h = settings.dt / settings.substeps;
+  RecoveryRule rule;
+  rule.rate = make_softness(settings.contact_hertz, settings.contact_damping_ratio, h).bias_rate;
+  rule.fixed_rate =
+      make_softness(2.0 * settings.contact_hertz, settings.contact_damping_ratio, h).bias_rate;
+  rule.cap = settings.max_correction_speed;
+  return rule;
+}
+
+bool WorldImpl::recovering(const Contact& c, const RecoveryRule& rule) const {
+  if (c.sensor || c.manifold.count == 0) return false;
+  const Body& a = bodies[c.body_a];
+  const Body& b = bodies[c.body_b];
+  const double cap2 = rule.cap * rule.cap;
+  if (a.v.squaredNorm() > cap2 || b.v.squaredNorm() > cap2) return false;
+  double depth = 0.0;
+  for (int i = 0; i < c.manifold.count; ++i) {
+    depth = std::max(depth, -c.manifold.points[i].separation);
+  }
+  const bool fixed = !a.is_dynamic() || !b.is_dynamic();
+  return (fixed ? rule.fixed_rate : rule.rate) * depth >= rule.cap;
+}
+
 bool WorldImpl::plan_joint_needs(const std::vector<int>& awake, double g) {
   const int n = static_cast<int>(awake.size());
   const std::vector<int>& slot = solver_scratch.body_slot;
@@ -201,13 +242,15 @@ bool WorldImpl::plan_joint_needs(const std::vector<int>& awake, double g) {
 bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   budget.islands = 0;
   budget.max_substeps = settings.substeps;
+  budget.max_relax = settings.relax_iterations;
   budget.groups.clear();
   if (settings.max_substeps <= settings.substeps) return false;
   const double g = std::sqrt(settings.gravity.x() * settings.gravity.x() +
                              settings.gravity.y() * settings.gravity.y());
   const bool joint_budgets = settings.joint_hertz != 0.0 && g != 0.0;
   const bool contact_budgets = contact_press().has_value();
-  if (!joint_budgets && !contact_budgets) return false;
+  const bool relax_budgets = !budget.recovering.empty();
+  if (!joint_budgets && !contact_budgets && !relax_budgets) return false;
   const int n = static_cast<int>(awake.size());
   std::vector<int>& slot = solver_scratch.body_slot;  // body -> 1 + position in `awake`
   if (slot.size() < bodies.size()) slot.resize(bodies.size(), 0);
@@ -247,6 +290,18 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
       more = more || contact_budget_substeps(settings, pressed[k]) > settings.substeps;
     }
   }
+  // Recovering contacts (collide listed them) give their dynamic bodies more relax passes.
+  std::vector<int>& relax_need = budget.relax_need;
+  relax_need.assign(n, settings.relax_iterations);
+  for (int ci : budget.recovering) {
+    const Contact& c = contacts[ci];
+    for (int bi : {c.body_a, c.body_b}) {
+      if (bodies[bi].is_dynamic() && bodies[bi].awake) {
+        relax_need[slot[bi] - 1] = kRecoveryRelax * settings.relax_iterations;
+        more = true;
+      }
+    }
+  }
   if (!more) return false;
 
   // Islands: joint components joined by touching contacts. One touching a kinematic body keeps
@@ -258,6 +313,8 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   for (int k = 0; k < n; ++k) component[k] = find_root(parent, k);
   std::vector<int>& island_need = budget.island_need;
   island_need.assign(n, 0);
+  std::vector<int>& island_relax = budget.island_relax;
+  island_relax.assign(n, settings.relax_iterations);
   for (int k = 0; k < n; ++k) {
     const int bi = awake[k];
     if (!bodies[bi].is_dynamic()) continue;
@@ -300,27 +357,36 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
       contact_need = contact_budget_substeps(settings, std::min(pressed[k], weight[r] * reach[k]));
     }
     island_need[r] = std::max({island_need[r], need[component[k]], contact_need});
+    island_relax[r] = std::max(island_relax[r], relax_need[k]);
   }
-  // Groups by substeps, ascending; bodies in id order within each.
-  std::vector<int> counts;
+  // Groups by substeps and relax passes, ascending; bodies in id order within each.
   for (int k = 0; k < n; ++k) {
     const int r = find_root(parent, k);
-    const int sub = !bodies[awake[k]].is_dynamic() || island_need[r] <= 0
-                        ? settings.substeps
-                        : std::max(island_need[r], settings.substeps);
-    auto it = std::find_if(budget.groups.begin(), budget.groups.end(),
-                           [&](const BudgetGroup& grp) { return grp.substeps == sub; });
+    const bool base = !bodies[awake[k]].is_dynamic() || island_need[r] <= 0;
+    const int sub = base ? settings.substeps : std::max(island_need[r], settings.substeps);
+    const int relax = base ? settings.relax_iterations : island_relax[r];
+    auto it = std::find_if(budget.groups.begin(), budget.groups.end(), [&](const BudgetGroup& grp) {
+      return grp.substeps == sub && grp.relax == relax;
+    });
     if (it == budget.groups.end()) {
-      budget.groups.push_back(BudgetGroup{sub, {}});
+      budget.groups.push_back(BudgetGroup{sub, relax, {}});
       it = budget.groups.end() - 1;
     }
     it->bodies.push_back(awake[k]);
-    if (r == k && sub > settings.substeps) ++budget.islands;
+    if (r == k && (sub > settings.substeps || relax > settings.relax_iterations)) {
+      ++budget.islands;
+    }
     budget.max_substeps = std::max(budget.max_substeps, sub);
+    budget.max_relax = std::max(budget.max_relax, relax);
   }
-  if (budget.groups.size() < 2 && budget.groups[0].substeps == settings.substeps) return false;
+  if (budget.groups.size() < 2 && budget.groups[0].substeps == settings.substeps &&
+      budget.groups[0].relax == settings.relax_iterations) {
+    return false;
+  }
   std::sort(budget.groups.begin(), budget.groups.end(),
-            [](const BudgetGroup& a, const BudgetGroup& b) { return a.substeps < b.substeps; });
+            [](const BudgetGroup& a, const BudgetGroup& b) {
+              return a.substeps != b.substeps ? a.substeps < b.substeps : a.relax < b.relax;
+            });
   return true;
 }
 
@@ -334,8 +400,12 @@ void WorldImpl::solve(const std::vector<int>& awake) {
   const int iterations = settings.velocity_iterations;
   const double joint_hertz = settings.joint_hertz;
   const double contact_hertz = settings.contact_hertz;
+  const int relax = settings.relax_iterations;
+  const double cap = settings.max_correction_speed;
   for (const BudgetGroup& grp : budget.groups) {
     settings.substeps = grp.substeps;
+    settings.relax_iterations = grp.relax;
+    settings.max_correction_speed = grp.relax > relax ? kRecoveryCap * cap : cap;
     settings.velocity_iterations = budget_iterations(iterations, substeps, grp.substeps);
     settings.joint_hertz = joint_hertz * grp.substeps / substeps;
     settings.contact_hertz = contact_hertz * grp.substeps / substeps;
@@ -345,6 +415,8 @@ void WorldImpl::solve(const std::vector<int>& awake) {
   settings.velocity_iterations = iterations;
   settings.joint_hertz = joint_hertz;
   settings.contact_hertz = contact_hertz;
+  settings.relax_iterations = relax;
+  settings.max_correction_speed = cap;
   // Later stages read the slots of the whole awake set.
   std::vector<int>& slot = solver_scratch.body_slot;
   for (size_t k = 0; k < awake.size(); ++k) slot[awake[k]] = static_cast<int>(k + 1);

@@ -110,6 +110,7 @@ void WorldImpl::destroy_body_contacts(int bi) {
 
 void WorldImpl::collide() {
   budget.most_pressed = 0.0;
+  budget.recovering.clear();
   const std::optional<ContactPress> press = contact_press();
   if (press) {
     contact_pressed.resize(contacts.size(), 0.0);
@@ -194,18 +195,34 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
   // chunk's largest (a maximum, the same in any order).
   std::vector<double>& chunk_pressed = scratch_chunk_pressed;
   chunk_pressed.assign(press ? chunks : 0, 0.0);
+  // With recovery budgets on, each chunk's recovering contacts (budget.cpp), gathered in id
+  // order.
+  const std::optional<RecoveryRule> recovery = recovery_rule();
+  std::vector<std::vector<int>>& chunk_recovering = scratch_chunk_recovering;
+  if (recovery && chunk_recovering.size() < static_cast<size_t>(chunks)) {
+    chunk_recovering.resize(chunks);
+  }
   auto chunk = [&](int i) {
+    if (recovery) chunk_recovering[i].clear();
     const size_t lo = static_cast<size_t>(i) * kContactsPerChunk;
     const size_t hi = std::min(lo + kContactsPerChunk, list.size());
     for (size_t k = lo; k < hi; ++k) {
       refresh(k);
-      if (press && overlap[k]) {
-        chunk_pressed[i] = std::max(chunk_pressed[i], press_contact(list[k], *press));
+      if (!overlap[k]) continue;
+      if (press) chunk_pressed[i] = std::max(chunk_pressed[i], press_contact(list[k], *press));
+      if (recovery && recovering(contacts[list[k]], *recovery)) {
+        chunk_recovering[i].push_back(list[k]);
       }
     }
   };
   run_chunks(chunks >= 4 ? pool : nullptr, chunks, chunk, true);
   for (double p : chunk_pressed) budget.most_pressed = std::max(budget.most_pressed, p);
+  if (recovery) {
+    for (int i = 0; i < chunks; ++i) {
+      budget.recovering.insert(budget.recovering.end(), chunk_recovering[i].begin(),
+                               chunk_recovering[i].end());
+    }
+  }
 
   // Then, in id order: boxes that parted destroy their contact; touches wake and report.
   for (size_t k = 0; k < list.size(); ++k) {

@@ -31,8 +31,6 @@
 
 namespace fulcrum {
 
-namespace {
-
 Softness make_softness(double hertz, double zeta, double h) {
   if (hertz == 0.0) return Softness{};
   double omega = 2.0 * kPi * hertz;
@@ -41,6 +39,8 @@ Softness make_softness(double hertz, double zeta, double h) {
   double a3 = 1.0 / (1.0 + a2);
   return Softness{omega / a1, a2 * a3, a3};
 }
+
+namespace {
 
 // The row math below is written on plain doubles: (v + w x r) = (vx - w ry, vy + w rx) and
 // r x P = rx Py - ry Px.

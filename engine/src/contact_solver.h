@@ -30,6 +30,9 @@ struct Softness {
   double mass_scale = 1.0;
   double impulse_scale = 0.0;
 };
+// The implicit spring of frequency `hertz` and damping ratio `zeta` over substep h; rigid (all
+// zero feedback) for hertz 0.
+Softness make_softness(double hertz, double zeta, double h);
 
 struct ContactPointRow {
   double rax = 0.0, ray = 0.0;  // point relative to body A's centre of mass (tick start)

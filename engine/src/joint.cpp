@@ -13,15 +13,6 @@ namespace fulcrum {
 
 namespace {
 
-// The implicit spring of frequency `hertz` and damping ratio `zeta` over substep h (see
-// contact_solver.cpp); rigid (all zero feedback) for hertz 0.
-Softness joint_softness(double hertz, double zeta, double h) {
-  if (hertz == 0.0) return Softness{};
-  double omega = 2.0 * kPi * hertz;
-  double a1 = 2.0 * zeta + h * omega, a2 = h * omega * a1, a3 = 1.0 / (1.0 + a2);
-  return Softness{omega / a1, a2 * a3, a3};
-}
-
 // The angle of b relative to a, less the reference, in (-pi, pi].
 double relative_angle(const Rot& qa, const Rot& qb, double reference) {
   double angle = inv_mul(qa, qb).angle() - reference;
@@ -185,7 +176,7 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
   std::sort(s.joints.begin(), s.joints.end());
   s.joints.erase(std::unique(s.joints.begin(), s.joints.end()), s.joints.end());
 
-  const Softness soft = joint_softness(settings.joint_hertz, settings.joint_damping_ratio, h);
+  const Softness soft = make_softness(settings.joint_hertz, settings.joint_damping_ratio, h);
   s.joint_rows.resize(s.joints.size());
   s.spring_rows.clear();
   size_t n_rows = 0;
@@ -214,8 +205,8 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     r.dcx = bb.center.x() - ba.center.x();
     r.dcy = bb.center.y() - ba.center.y();
     r.soft = soft;
-    r.spring = joint_softness(j.hertz, j.damping_ratio, h);
-    r.angular_spring = joint_softness(j.angular_hertz, j.angular_damping_ratio, h);
+    r.spring = make_softness(j.hertz, j.damping_ratio, h);
+    r.angular_spring = make_softness(j.angular_hertz, j.angular_damping_ratio, h);
     const SolverBody& a = s.bodies[r.ia];
     const SolverBody& b = s.bodies[r.ib];
     if (j.type == JointType::kTarget) {

@@ -95,7 +95,8 @@ std::vector<ShapeId> World::overlap_point(const Vec2& point, const QueryFilter& 
 
 World::Budgets World::budgets() const {
   const WorldImpl& w = *impl_;
-  return Budgets{w.budget.islands, std::max(w.budget.max_substeps, w.settings.substeps)};
+  return Budgets{w.budget.islands, std::max(w.budget.max_substeps, w.settings.substeps),
+                 std::max(w.budget.max_relax, w.settings.relax_iterations)};
 }
 
 WorldMetrics World::metrics() const {
@@ -107,6 +108,7 @@ WorldMetrics World::metrics() const {
   const Budgets budget = budgets();
   m.budget_islands = budget.islands;
   m.max_substeps = budget.max_substeps;
+  m.max_relax_iterations = budget.max_relax_iterations;
   double penetration_sum = 0.0;
   int penetrating = 0;
   for (const Contact& c : w.contacts) {

@@ -21,6 +21,15 @@
 
 namespace fulcrum {
 
+// What tells a recovering contact for one step (budget.cpp): one pushed out at the cap
+// (rate times overlap, the rate twice as high against a body of infinite mass) while both its
+// bodies move slower than the cap.
+struct RecoveryRule {
+  double rate = 0.0;        // soft push-out rate between two dynamic bodies, 1/s
+  double fixed_rate = 0.0;  // against a body of infinite mass
+  double cap = 0.0;         // max_correction_speed
+};
+
 // The constants of the contact budgets' prediction for one step (budget.cpp).
 struct ContactPress {
   double per_impulse = 0.0;  // the load of an impulse kept per world substep: S / dt
@@ -77,6 +86,9 @@ class WorldImpl {
   // The constants press_contact needs, or none when contact budgets are off.
   std::optional<ContactPress> contact_press() const;
   double press_contact(int contact, const ContactPress& press);
+  // The rule for recovering contacts, or none when recovery budgets are off (budget.cpp).
+  std::optional<RecoveryRule> recovery_rule() const;
+  bool recovering(const Contact& contact, const RecoveryRule& rule) const;
   // Work done by edits since the world was built or restored (World::edit_work): shapes and
   // joints created, broad-phase leaves visited and bodies woken. Not state.
   uint64_t edit_work = 0;
@@ -182,20 +194,25 @@ class WorldImpl {
   std::vector<int> scratch_contacts;
   std::vector<uint8_t> scratch_overlap;       // collide: whether each contact's boxes still overlap
   std::vector<double> scratch_chunk_pressed;  // collide: each chunk's largest contact_pressed
+  std::vector<std::vector<int>> scratch_chunk_recovering;  // collide: each chunk's, in id order
   std::vector<int> scratch_awake;
   SolverScratch solver_scratch;
   struct BudgetGroup {
     int substeps = 0;
+    int relax = 0;            // relax passes per substep
     std::vector<int> bodies;  // in id order
   };
   struct Budget {
-    int islands = 0;       // islands given more substeps than the world's, this tick
+    int islands = 0;       // islands given more substeps or relax passes than the world's
     int max_substeps = 0;  // the most substeps any island ran this tick
+    int max_relax = 0;     // the most relax passes per substep any island ran this tick
     std::vector<BudgetGroup> groups;
     std::vector<double> mass, weakest;   // per joint component root, then island weights
     std::vector<double> pressed, reach;  // per body: its contacts' worst (budget.cpp)
     double most_pressed = 0.0;           // the largest contact_pressed of this step
+    std::vector<int> recovering;         // this step's recovering contacts, in id order
     std::vector<int> need, island_need;
+    std::vector<int> relax_need, island_relax;  // per body, then per island root
     // The world's substeps while a group is solved with its own: contact impulses are kept
     // between ticks per substep of this length, whatever the island's budget (budget.cpp).
     int base_substeps = 0;

@@ -101,6 +101,7 @@ void frame_to_proto(const PublishedFrame& next, const PublishedFrame* previous,
   out->set_awake_body_count(next.awake_body_count);
   out->set_budget_islands(next.budgets.islands);
   out->set_max_substeps(next.budgets.max_substeps);
+  out->set_max_relax_iterations(next.budgets.max_relax_iterations);
   const bool restored = previous != nullptr && previous->epoch != next.epoch;
   out->set_restored(restored);
   if (mode == v1::FRAME_BODIES_NONE) return;

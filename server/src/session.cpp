@@ -71,6 +71,7 @@ void Session::refresh_summary_locked(uint64_t state_hash) {
   summary_.set_contact_count(m.contact_count);
   summary_.set_budget_islands(m.budget_islands);
   summary_.set_max_substeps(m.max_substeps);
+  summary_.set_max_relax_iterations(m.max_relax_iterations);
   summary_.set_state_hash(state_hash);
   runtime_to_proto_locked(&summary_);
 }

@@ -246,6 +246,48 @@ TEST(Budget, IslandsDrivenByAMotorAgainstTheGroundKeepTheWorldsSubsteps) {
   EXPECT_EQ(driven.metrics().budget_islands, 0);
 }
 
+// A contact whose soft push-out reaches max_correction_speed while both its bodies are slower
+// than that makes its island recover: three relax passes per substep and twice the cap. The
+// pyramid created overlapping by a quarter recovers for its first ticks and not once apart;
+// the same boxes thrown faster than the cap do not recover (their motion, not the push-out,
+// carries them).
+TEST(Budget, DeepOverlapsAtRestRecoverWithMoreRelaxPasses) {
+  World w = build("overlap_recovery");
+  w.step();
+  EXPECT_EQ(w.metrics().budget_islands, 1);
+  EXPECT_EQ(w.metrics().max_relax_iterations, 3);
+  EXPECT_EQ(w.metrics().max_substeps, 4);
+  for (int i = 0; i < 59; ++i) w.step();
+  EXPECT_EQ(w.metrics().max_relax_iterations, 1);
+  EXPECT_EQ(w.metrics().budget_islands, 0);
+
+  SceneDef s = scene("overlap_recovery");
+  for (SceneBody& b : s.bodies) {
+    if (b.def.type == BodyType::kDynamic) b.def.linear_velocity = Vec2(4.0, 0.0);
+  }
+  World thrown = build(s);
+  thrown.step();
+  EXPECT_EQ(thrown.metrics().max_relax_iterations, 1);
+
+  // Budgets off: no recovery either.
+  s = scene("overlap_recovery");
+  s.settings.max_substeps = s.settings.substeps;
+  World off = build(s);
+  off.step();
+  EXPECT_EQ(off.metrics().max_relax_iterations, 1);
+}
+
+// Recovery is planned from the contacts the narrow phase lists in id order, so a jammed box of
+// circles (case 8, recovering every tick) continues bit for bit after a restore and on 2
+// threads.
+TEST(Budget, RecoveringIslandsContinueBitForBitAfterARestoreAndOnThreads) {
+  const SceneDef s = scene("confined");
+  World w = build(s);
+  expect_restored_and_threaded_copies_agree(s, w, 10, 20);
+  EXPECT_EQ(w.metrics().max_relax_iterations, 3);
+  EXPECT_GE(w.metrics().contact_count, 256);
+}
+
 // Bad settings are refused with the field named.
 TEST(Budget, SettingsOutOfRangeAreRefused) {
   WorldSettings s;

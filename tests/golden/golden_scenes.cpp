@@ -611,6 +611,35 @@ World build_lanes() {
   return require(build_world(s), "lanes", "build_world");
 }
 
+// --- 8. recovery: deep overlaps that make their islands recover --------------------------------
+// Overlaps deep enough that their push-out reaches the cap give their islands three relax
+// passes and twice the cap (docs/solver.md, Budgets): a pyramid of boxes created overlapping
+// by a quarter (case 6's), which recovers for its first ticks, and 100 circles jammed into a
+// closed box they cannot fit (covering 123 % of it), which recover while they are slow, with
+// contacts enough that threads share them.
+
+World build_recovery() {
+  SceneDef s;
+  scenes::add_ground(&s, 40.0);
+  for (int row = 0; row < 4; ++row) {
+    const int n = 4 - row;
+    for (int i = 0; i < n; ++i) {
+      push(&s, box_body(BodyType::kDynamic,
+                        Vec2(-12.0 + (i - 0.5 * (n - 1)) * 0.75, 0.5 + 0.75 * row), 0.5, 0.5, 1.0));
+    }
+  }
+  // The box: inner faces 4 m either side of x = 10, from the ground to 8 m.
+  push(&s, box_body(BodyType::kStatic, Vec2(5.5, 4.0), 0.5, 4.0, 1.0));
+  push(&s, box_body(BodyType::kStatic, Vec2(14.5, 4.0), 0.5, 4.0, 1.0));
+  push(&s, box_body(BodyType::kStatic, Vec2(10.0, 8.5), 5.0, 0.5, 1.0));
+  for (int j = 0; j < 10; ++j) {
+    for (int i = 0; i < 10; ++i) {
+      push(&s, ball_body(Vec2(6.5 + 0.78 * i, 0.5 + 0.74 * j), 0.5, 1.0));
+    }
+  }
+  return require(build_world(s), "recovery", "build_world");
+}
+
 }  // namespace
 
 const std::vector<GoldenScenario>& golden_scenarios() {
@@ -622,6 +651,7 @@ const std::vector<GoldenScenario>& golden_scenarios() {
       {"edits", 480, build_edits, edit_edits},
       {"joints", 360, build_joints, edit_joints},
       {"lanes", 240, build_lanes, no_edits},
+      {"recovery", 240, build_recovery, no_edits},
   };
   return scenarios;
 }

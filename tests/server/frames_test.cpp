@@ -109,6 +109,15 @@ TEST(Frames, CarryTheBudgetsOfTheirTick) {
   frame_to_proto(*f, nullptr, v1::FRAME_BODIES_NONE, 0, 1, &out);
   EXPECT_EQ(out.budget_islands(), 1);
   EXPECT_EQ(out.max_substeps(), 7);
+  EXPECT_EQ(out.max_relax_iterations(), 1);
+  // Boxes created overlapping by a quarter: the pyramid recovers with three relax passes.
+  Result<World> overlapping = build_world(*scenes::builtin("overlap_recovery"));
+  ASSERT_TRUE(overlapping.ok());
+  overlapping->step();
+  frame_to_proto(*capture_frame(*overlapping, 1, 0), nullptr, v1::FRAME_BODIES_NONE, 0, 1, &out);
+  EXPECT_EQ(out.budget_islands(), 1);
+  EXPECT_EQ(out.max_substeps(), 4);
+  EXPECT_EQ(out.max_relax_iterations(), 3);
 }
 
 // Decoding as frames.proto says: value = units * step.

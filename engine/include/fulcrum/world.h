@@ -76,9 +76,11 @@ struct WorldMetrics {
   double max_speed = 0.0;               // largest linear speed of any body, m/s
   double max_joint_error = 0.0;         // largest JointState::linear_error over all joints, m
   // Budgets (WorldSettings::max_substeps): at the last tick, how many islands ran more
-  // substeps than the world's, and the most any island ran.
+  // substeps or relax passes than the world's, the most substeps any island ran, and the most
+  // relax passes per substep.
   int budget_islands = 0;
   int max_substeps = 0;
+  int max_relax_iterations = 0;
 };
 
 struct QueryFilter {
@@ -210,8 +212,9 @@ class World {
   WorldMetrics metrics() const;
   // The budgets of the last tick, as in WorldMetrics (cheap: no pass over the world).
   struct Budgets {
-    int islands = 0;       // islands that ran more substeps than settings().substeps
+    int islands = 0;       // islands that ran more substeps or relax passes than the world's
     int max_substeps = 0;  // the most substeps any island ran
+    int max_relax_iterations = 0;  // the most relax passes per substep any island ran
   };
   Budgets budgets() const;
 
