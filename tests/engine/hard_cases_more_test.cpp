@@ -125,11 +125,11 @@ struct ConfinedRun {
   double extent = 0.0, ke_3s = 0.0, worst_rise = 0.0, penetration = 0.0;
   int relax = 0;
 };
-ConfinedRun run_confined(const SceneDef& s) {
+ConfinedRun run_confined(const SceneDef& s, int ticks = 600) {
   World w = build(s);
   const std::vector<BodyId> ids = w.bodies();
   ConfinedRun r;
-  for (int i = 0; i < 600; ++i) {
+  for (int i = 0; i < ticks; ++i) {
     w.step();
     for (size_t k = 4; k < ids.size(); ++k) {
       Vec2 c = w.body_state(ids[k])->center;
@@ -154,14 +154,16 @@ TEST(HardCases, Case08Confined) {
 }
 
 // Case 8 with budgets off (max_substeps = substeps): the push-out stays capped at 1.5 m/s with
-// one relax pass, and the energy climbs 0.32 J above its 3 s value while circles squeeze 0.65 m
-// into each other. What the recovery budget buys; pinned loosely (any gain above 0.1 J).
+// one relax pass, and the energy climbs above its 3 s value (by 0.22 J at 4 s, 0.32 J at
+// 4.5 s) while circles squeeze into each other (0.52 m at 5 s, 0.65 m at 10 s). What the
+// recovery budget buys; pinned loosely over the first 5 s (a gain above 0.1 J, overlaps past
+// 0.4 m).
 TEST(HardCases, Case08ConfinedWithoutBudgetsGainsEnergy) {
   SceneDef s = scene("confined");
   s.settings.max_substeps = s.settings.substeps;
-  ConfinedRun r = run_confined(s);
+  ConfinedRun r = run_confined(s, 300);
   EXPECT_GT(r.worst_rise, 0.1);
-  EXPECT_GT(r.penetration, 0.5);
+  EXPECT_GT(r.penetration, 0.4);
   EXPECT_EQ(r.relax, 1);
 }
 
