@@ -634,6 +634,13 @@ class GrpcClient final : public Client {
     return reply;
   }
 
+  Result<v1::SetOwnershipReply> set_ownership(const v1::SetOwnershipRequest& request) override {
+    v1::SetOwnershipReply reply;
+    Status st = unary(&v1::Physics::Stub::SetOwnership, request, &reply);
+    if (!st.ok()) return st;
+    return reply;
+  }
+
   Result<v1::SendInputReply> send_input(uint64_t world, const v1::JoinSessionReply& player,
                                         int64_t tick, const v1::EditBatch& input) override {
     v1::SendInputRequest request;

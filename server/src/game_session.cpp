@@ -148,39 +148,8 @@ Status GameSession::join(const v1::JoinSessionRequest& request, const World& wor
   Player p;
   p.id = players_.empty() ? 1 : players_.rbegin()->first + 1;
   p.name = request.name();
-  std::map<uint64_t, int> seen;
-  for (int i = 0; i < request.bodies_size(); ++i) {
-    const std::string field = "bodies[" + std::to_string(i) + "]";
-    const BodyId id{request.bodies(i).index(), request.bodies(i).generation()};
-    Result<BodyState> state = world.body_state(id);
-    if (!state.ok()) return not_found(field + ": no live " + text_of("body", id));
-    if (state->type == BodyType::kStatic) {
-      return invalid_argument(field + ": " + text_of("body", id) +
-                              " is static: inputs could not move it");
-    }
-    if (auto owner = body_owner_.find(key_of(id)); owner != body_owner_.end()) {
-      return failed_precondition(field + ": " + text_of("body", id) + " is player " +
-                                 std::to_string(owner->second) + "'s");
-    }
-    if (!seen.emplace(key_of(id), i).second) {
-      return invalid_argument(field + ": " + text_of("body", id) + " is listed twice");
-    }
-    p.bodies.push_back(id);
-  }
-  seen.clear();
-  for (int i = 0; i < request.joints_size(); ++i) {
-    const std::string field = "joints[" + std::to_string(i) + "]";
-    const JointId id{request.joints(i).index(), request.joints(i).generation()};
-    if (!world.joint_state(id).ok()) return not_found(field + ": no live " + text_of("joint", id));
-    if (auto owner = joint_owner_.find(key_of(id)); owner != joint_owner_.end()) {
-      return failed_precondition(field + ": " + text_of("joint", id) + " is player " +
-                                 std::to_string(owner->second) + "'s");
-    }
-    if (!seen.emplace(key_of(id), i).second) {
-      return invalid_argument(field + ": " + text_of("joint", id) + " is listed twice");
-    }
-    p.joints.push_back(id);
-  }
+  FULCRUM_RETURN_IF_ERROR(
+      check_objects(request.bodies(), request.joints(), world, true, &p.bodies, &p.joints));
   p.secret = random_secret();
   for (BodyId b : p.bodies) body_owner_[key_of(b)] = p.id;
   for (JointId j : p.joints) joint_owner_[key_of(j)] = p.id;
@@ -191,6 +160,80 @@ Status GameSession::join(const v1::JoinSessionRequest& request, const World& wor
   reply->set_first_input_tick(p.first_input_tick);
   joined_.push_back(p.id);
   players_.emplace(p.id, std::move(p));
+  return {};
+}
+
+Status GameSession::check_objects(const google::protobuf::RepeatedPtrField<v1::Handle>& bodies,
+                                  const google::protobuf::RepeatedPtrField<v1::Handle>& joints,
+                                  const World& world, bool refuse_owned,
+                                  std::vector<BodyId>* body_ids,
+                                  std::vector<JointId>* joint_ids) const {
+  std::map<uint64_t, int> seen;
+  for (int i = 0; i < bodies.size(); ++i) {
+    const std::string field = "bodies[" + std::to_string(i) + "]";
+    const BodyId id{bodies[i].index(), bodies[i].generation()};
+    Result<BodyState> state = world.body_state(id);
+    if (!state.ok()) return not_found(field + ": no live " + text_of("body", id));
+    if (state->type == BodyType::kStatic) {
+      return invalid_argument(field + ": " + text_of("body", id) +
+                              " is static: inputs could not move it");
+    }
+    if (auto owner = body_owner_.find(key_of(id)); refuse_owned && owner != body_owner_.end()) {
+      return failed_precondition(field + ": " + text_of("body", id) + " is player " +
+                                 std::to_string(owner->second) + "'s");
+    }
+    if (!seen.emplace(key_of(id), i).second) {
+      return invalid_argument(field + ": " + text_of("body", id) + " is listed twice");
+    }
+    body_ids->push_back(id);
+  }
+  seen.clear();
+  for (int i = 0; i < joints.size(); ++i) {
+    const std::string field = "joints[" + std::to_string(i) + "]";
+    const JointId id{joints[i].index(), joints[i].generation()};
+    if (!world.joint_state(id).ok()) return not_found(field + ": no live " + text_of("joint", id));
+    if (auto owner = joint_owner_.find(key_of(id)); refuse_owned && owner != joint_owner_.end()) {
+      return failed_precondition(field + ": " + text_of("joint", id) + " is player " +
+                                 std::to_string(owner->second) + "'s");
+    }
+    if (!seen.emplace(key_of(id), i).second) {
+      return invalid_argument(field + ": " + text_of("joint", id) + " is listed twice");
+    }
+    joint_ids->push_back(id);
+  }
+  return {};
+}
+
+Status GameSession::set_ownership(const v1::SetOwnershipRequest& request, const World& world) {
+  const uint32_t to = request.player_id();
+  if (to != 0 && players_.find(to) == players_.end()) {
+    return not_found("player_id: no player " + std::to_string(to) + " in this session");
+  }
+  std::vector<BodyId> bodies;
+  std::vector<JointId> joints;
+  FULCRUM_RETURN_IF_ERROR(
+      check_objects(request.bodies(), request.joints(), world, false, &bodies, &joints));
+  // Each object leaves its old owner's list (in the order the owner got them) and joins the
+  // new owner's at the end.
+  auto move = [&](auto& owners, auto member, const auto& ids) {
+    for (const auto& id : ids) {
+      const uint64_t key = key_of(id);
+      auto owner = owners.find(key);
+      if (owner != owners.end()) {
+        if (owner->second == to) continue;
+        auto& list = players_.at(owner->second).*member;
+        list.erase(std::find(list.begin(), list.end(), id));
+        owners_changed_.insert(owner->second);
+        owners.erase(owner);
+      }
+      if (to == 0) continue;
+      owners[key] = to;
+      (players_.at(to).*member).push_back(id);
+      owners_changed_.insert(to);
+    }
+  };
+  move(body_owner_, &Player::bodies, bodies);
+  move(joint_owner_, &Player::joints, joints);
   return {};
 }
 
@@ -402,7 +445,14 @@ std::shared_ptr<const v1::SessionEvent> GameSession::confirm(const Sealed& appli
       player_to_proto(p->second, c->add_joined());
     }
   }
+  for (uint32_t id : owners_changed_) {
+    const bool joined = std::find(joined_.begin(), joined_.end(), id) != joined_.end();
+    if (auto p = players_.find(id); p != players_.end() && !joined) {
+      player_to_proto(p->second, c->add_owners_changed());
+    }
+  }
   joined_.clear();
+  owners_changed_.clear();
   history_.add(world, event);
   return event;
 }
@@ -492,6 +542,20 @@ Status Session::join_session(const v1::JoinSessionRequest& request, v1::JoinSess
   FULCRUM_RETURN_IF_ERROR(game_->join(request, world_, reply));
   log_event("player_joined", {{"world", id_},
                               {"player", reply->player_id()},
+                              {"tick", world_.tick()},
+                              {"bodies", request.bodies_size()},
+                              {"joints", request.joints_size()}});
+  return {};
+}
+
+Status Session::set_ownership(const v1::SetOwnershipRequest& request,
+                              v1::SetOwnershipReply* reply) {
+  Hold hold(this);
+  if (!game_) return not_a_session(id_);
+  FULCRUM_RETURN_IF_ERROR(game_->set_ownership(request, world_));
+  reply->set_tick(world_.tick());
+  log_event("ownership_set", {{"world", id_},
+                              {"player", request.player_id()},
                               {"tick", world_.tick()},
                               {"bodies", request.bodies_size()},
                               {"joints", request.joints_size()}});

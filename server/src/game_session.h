@@ -8,6 +8,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,8 @@ class GameSession {
 
   Status join(const v1::JoinSessionRequest& request, const World& world,
               v1::JoinSessionReply* reply);
+  // The world owner's SetOwnership: all of it or none.
+  Status set_ownership(const v1::SetOwnershipRequest& request, const World& world);
   // Checks the player, the tick and the input (the edit kinds an input may hold, on the
   // player's own objects, finite values), then holds it for its tick.
   Status send_input(const v1::SendInputRequest& request, const World& world,
@@ -107,6 +110,12 @@ class GameSession {
     v1::EditBatch last_input;      // the last confirmed input (MISSING_INPUT_REPEAT_LAST)
   };
   void player_to_proto(const Player& p, v1::PlayerInfo* out) const;
+  // Checks listed bodies and joints (live, bodies not static, none twice and, with
+  // `refuse_owned`, none a player's already) and returns their ids.
+  Status check_objects(const google::protobuf::RepeatedPtrField<v1::Handle>& bodies,
+                       const google::protobuf::RepeatedPtrField<v1::Handle>& joints,
+                       const World& world, bool refuse_owned, std::vector<BodyId>* body_ids,
+                       std::vector<JointId>* joint_ids) const;
   Status check_input(const Player& player, const v1::EditBatch& input) const;
 
   v1::SessionOptions options_;
@@ -117,8 +126,9 @@ class GameSession {
   std::map<uint64_t, uint32_t> joint_owner_;
   std::map<int64_t, std::map<uint32_t, v1::EditBatch>> inputs_;  // by tick, then player
   std::vector<Batch> pending_;
-  std::vector<uint32_t> joined_;  // players joined since the last confirmed tick
-  ConfirmedHistory history_;      // confirmed hashes and keyframes, for desync reports
+  std::vector<uint32_t> joined_;       // players joined since the last confirmed tick
+  std::set<uint32_t> owners_changed_;  // players SetOwnership changed since then
+  ConfirmedHistory history_;           // confirmed hashes and keyframes, for desync reports
 };
 
 }  // namespace fulcrum::server

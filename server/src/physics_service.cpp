@@ -766,6 +766,12 @@ grpc::Status PhysicsService::JoinSession(grpc::ServerContext* context,
   return on_world(context, *request, reply, &Session::join_session);
 }
 
+grpc::Status PhysicsService::SetOwnership(grpc::ServerContext* context,
+                                          const v1::SetOwnershipRequest* request,
+                                          v1::SetOwnershipReply* reply) {
+  return on_world(context, *request, reply, &Session::set_ownership);
+}
+
 grpc::Status PhysicsService::SendInput(grpc::ServerContext* context,
                                        const v1::SendInputRequest* request,
                                        v1::SendInputReply* reply) {

@@ -86,6 +86,8 @@ class PhysicsService final
                            v1::OpenSessionReply* reply) override;
   grpc::Status JoinSession(grpc::ServerContext* context, const v1::JoinSessionRequest* request,
                            v1::JoinSessionReply* reply) override;
+  grpc::Status SetOwnership(grpc::ServerContext* context, const v1::SetOwnershipRequest* request,
+                            v1::SetOwnershipReply* reply) override;
   grpc::Status SendInput(grpc::ServerContext* context, const v1::SendInputRequest* request,
                          v1::SendInputReply* reply) override;
   grpc::Status ReportHash(grpc::ServerContext* context, const v1::ReportHashRequest* request,

@@ -131,6 +131,7 @@ class Session : public std::enable_shared_from_this<Session> {
   // --- Multiplayer sessions (game_session.cpp) ---
   Status open_session(const v1::OpenSessionRequest& request, v1::OpenSessionReply* reply);
   Status join_session(const v1::JoinSessionRequest& request, v1::JoinSessionReply* reply);
+  Status set_ownership(const v1::SetOwnershipRequest& request, v1::SetOwnershipReply* reply);
   // Holds the input for its tick; with SEAL_RULE_ALL_INPUTS and the world paused, then steps
   // every tick whose inputs are all in.
   Status send_input(const v1::SendInputRequest& request, v1::SendInputReply* reply);

@@ -182,7 +182,20 @@ void session_seeds() {
             call(5, std::string(1, '\0')) +
             call(2, from_text<v1::SendInputRequest>("world_id: 1 player_id: 1 tick: 1")
                         .SerializeAsString()) +
-            call(3, from_text<v1::StepRequest>("world_id: 1 ticks: 2").SerializeAsString()));
+            call(3, from_text<v1::StepRequest>("world_id: 1 ticks: 2").SerializeAsString()) +
+            // The owner gives player 1's body to player 2, who pushes it; then takes it back.
+            call(8, from_text<v1::SetOwnershipRequest>("world_id: 1 player_id: 2 bodies " + a)
+                        .SerializeAsString()) +
+            call(2, from_text<v1::SendInputRequest>(
+                        "world_id: 1 player_id: 2 tick: 1 input { edits { set_velocity { body: " +
+                        a + " linear { x: -1 } } } }")
+                        .SerializeAsString()) +
+            call(8, from_text<v1::SetOwnershipRequest>("world_id: 1 bodies " + a + " bodies " + a)
+                        .SerializeAsString()) +
+            call(
+                8,
+                from_text<v1::SetOwnershipRequest>("world_id: 1 bodies " + a).SerializeAsString()) +
+            call(3, from_text<v1::StepRequest>("world_id: 1 ticks: 1").SerializeAsString()));
   }
   // On the clock of Step on the bridge: an input delay, the last input repeated, a joint owned,
   // and the owner destroying a player's body with an input for it in flight.

@@ -1,6 +1,6 @@
 // Fuzz target: multiplayer sessions (session.proto, game_session.cpp) driven in process, as gRPC
 // drives them: OpenSession, JoinSession, SendInput, Step, WatchSession and its end, ApplyEdits
-// by the world's owner, on worlds started from the base worlds (fuzz_worlds.h).
+// and SetOwnership by the world's owner, on worlds started from the base worlds (fuzz_worlds.h).
 //
 // Input: a byte choosing the base world of the first world (mixed, bounce, bridge), then calls,
 // each a method byte, a two-byte little-endian length and that many bytes of the call's message:
@@ -8,6 +8,7 @@
 //   4 WatchSessionRequest (a watch through Session::watch_session, as the WatchSession stream
 //     opens one)           5 ends an open watch (the first byte picks which)
 //   6 ApplyEditsRequest    7 another world (the first byte picks its base world)
+//   8 SetOwnershipRequest
 // So that seeds and mutations reach live sessions: a world_id of 1 to 16 names the 1st to 16th
 // world this input created; a SendInput's tick counts from the world's tick (0: the tick the
 // world steps next); a player_secret of 0 bytes is that player's own secret, of 1 or 2 bytes its
@@ -473,6 +474,19 @@ grpc::Status run_call(Harness& h, int method, std::string_view bytes,
       v1::ApplyEditsReply reply;
       return h.service.ApplyEdits(&context, &request, &reply);
     }
+    case 8: {
+      v1::SetOwnershipRequest request;
+      if (!parse(bytes, &request)) return unparsed;
+      request.set_world_id(world_of(request.world_id()));
+      fuzz::print(request);
+      *request_type = request.GetDescriptor();
+      v1::SetOwnershipReply reply;
+      grpc::Status s = h.service.SetOwnership(&context, &request, &reply);
+      if (s.ok()) {
+        fuzz::check(reply.tick() == before.at(request.world_id()).first, "SetOwnership: tick");
+      }
+      return s;
+    }
     default:
       if (!bytes.empty()) add_world(h, static_cast<uint8_t>(bytes[0]));
       return grpc::Status::OK;
@@ -487,7 +501,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   add_world(*h, data[0]);
   size_t pos = 1;
   while (pos + 3 <= size) {
-    const int method = data[pos] % 8;
+    const int method = data[pos] % 9;
     const size_t len = std::min<size_t>(data[pos + 1] | (data[pos + 2] << 8), size - pos - 3);
     const std::string_view bytes = fuzz::bytes(data + pos + 3, len);
     pos += 3 + len;

@@ -84,3 +84,28 @@ def test_reported_hashes_match_and_a_wrong_one_is_named_by_its_tick(client, scen
         with pytest.raises(fulcrum.FulcrumError) as error:
             world.report_hash(one, 0, hashes)
         assert error.value.field == "first_tick"
+
+
+def test_the_owner_gives_a_body_to_another_player_and_takes_it_back(client, scenes):
+    with client.create_world(scenes / "pyramid.json") as world:
+        world.open_session()
+        one = world.join(bodies=[TOP])
+        two = world.join()
+        reply = world.set_ownership(two, bodies=[TOP])
+        assert reply.tick == world.tick
+        world.send_input(two, 1, push(TOP, 1.0))
+        with pytest.raises(fulcrum.FulcrumError) as error:
+            world.send_input(one, 1, push(TOP, 1.0))
+        assert error.value.code == grpc.StatusCode.PERMISSION_DENIED
+        world.set_ownership(0, bodies=[TOP])
+        with pytest.raises(fulcrum.FulcrumError) as error:
+            world.send_input(two, 2, push(TOP, 1.0))
+        assert error.value.code == grpc.StatusCode.PERMISSION_DENIED
+        # Refused whole, with the field named: a player the session does not have.
+        with pytest.raises(fulcrum.FulcrumError) as error:
+            world.set_ownership(7, bodies=[TOP])
+        assert error.value.code == grpc.StatusCode.NOT_FOUND
+        assert error.value.field == "player_id"
+        with pytest.raises(fulcrum.FulcrumError) as error:
+            world.set_ownership(-1, bodies=[TOP])
+        assert error.value.field == "player_id"

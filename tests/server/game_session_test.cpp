@@ -117,3 +117,106 @@ TEST(GameSession, RefusalsForTheWrongKindOfWorldNameWorldId) {
 
 }  // namespace
 }  // namespace fulcrum::server
+
+namespace fulcrum::server {
+namespace {
+
+v1::Handle handle_of(BodyId id) {
+  v1::Handle h;
+  h.set_index(id.index);
+  h.set_generation(id.generation);
+  return h;
+}
+
+// The world owner's SetOwnership moves bodies between players, all of a request or none of
+// it: inputs are checked against the ownership of the moment they arrive, and watchers learn
+// each change in the next confirmed tick.
+TEST(GameSession, TheOwnerMovesBodiesBetweenPlayersAllOrNothing) {
+  Result<SceneDef> scene = scenes::builtin("vertical_stack");
+  ASSERT_TRUE(scene.ok());
+  Result<World> world = build_world(*scene);
+  ASSERT_TRUE(world.ok());
+  // The ground first, then the boxes.
+  const std::vector<BodyId> ids = world->bodies();
+  const v1::Handle ground = handle_of(ids[0]), a = handle_of(ids[1]), b = handle_of(ids[2]);
+  ASSERT_EQ(world->body_state(ids[0])->type, BodyType::kStatic);
+  auto session = std::make_shared<Session>(1, "stack", std::move(world).value(), Limits{});
+  v1::OpenSessionReply opened;
+  ASSERT_TRUE(session->open_session(v1::OpenSessionRequest(), &opened).ok());
+  auto events = std::make_shared<Events>();
+  ASSERT_TRUE(session->watch_session(events, 0, "").ok());
+
+  v1::JoinSessionRequest join;
+  *join.add_bodies() = a;
+  v1::JoinSessionReply one, two;
+  ASSERT_TRUE(session->join_session(join, &one).ok());
+  ASSERT_TRUE(session->join_session(v1::JoinSessionRequest(), &two).ok());
+  v1::StepReply stepped;
+  ASSERT_TRUE(session->step(1, std::nullopt, false, nullptr, &stepped).ok());
+
+  int64_t tick = stepped.tick() + 1;
+  // Player `p` pushes `body` at a tick not sealed yet.
+  auto push = [&](const v1::JoinSessionReply& p, const v1::Handle& body) {
+    v1::SendInputRequest send;
+    send.set_player_id(p.player_id());
+    send.set_player_secret(p.player_secret());
+    send.set_tick(tick);
+    v1::SetVelocity* v = send.mutable_input()->add_edits()->mutable_set_velocity();
+    *v->mutable_body() = body;
+    v->mutable_linear()->set_x(1.0);
+    v1::SendInputReply sent;
+    return session->send_input(send, &sent);
+  };
+  EXPECT_EQ(push(two, a).code(), StatusCode::kPermissionDenied);
+
+  v1::SetOwnershipRequest give;
+  give.set_player_id(two.player_id());
+  *give.add_bodies() = a;
+  v1::SetOwnershipReply given;
+  ASSERT_TRUE(session->set_ownership(give, &given).ok());
+  EXPECT_EQ(given.tick(), stepped.tick());
+  EXPECT_EQ(push(one, a).code(), StatusCode::kPermissionDenied);
+  EXPECT_TRUE(push(two, a).ok());
+  ASSERT_TRUE(session->step(1, std::nullopt, false, nullptr, &stepped).ok());
+  ASSERT_EQ(events->confirmed.size(), 2u);
+  const v1::ConfirmedTick& changed = events->confirmed.back();
+  ASSERT_EQ(changed.owners_changed_size(), 2) << changed.ShortDebugString();
+  EXPECT_EQ(changed.owners_changed(0).player_id(), one.player_id());
+  EXPECT_EQ(changed.owners_changed(0).bodies_size(), 0);
+  EXPECT_EQ(changed.owners_changed(1).player_id(), two.player_id());
+  ASSERT_EQ(changed.owners_changed(1).bodies_size(), 1);
+  EXPECT_EQ(changed.owners_changed(1).bodies(0).index(), a.index());
+
+  // Refused whole: an unknown player, a static body, a body listed twice. b stays no one's.
+  tick = stepped.tick() + 1;
+  v1::SetOwnershipRequest bad;
+  bad.set_player_id(9);
+  *bad.add_bodies() = b;
+  Status s = session->set_ownership(bad, &given);
+  EXPECT_EQ(s.code(), StatusCode::kNotFound);
+  EXPECT_NE(s.message().find("player_id: no player 9"), std::string::npos) << s.message();
+  bad.set_player_id(one.player_id());
+  *bad.add_bodies() = ground;
+  s = session->set_ownership(bad, &given);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("bodies[1]"), std::string::npos) << s.message();
+  bad.mutable_bodies(1)->CopyFrom(b);
+  s = session->set_ownership(bad, &given);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("listed twice"), std::string::npos) << s.message();
+  EXPECT_EQ(push(one, b).code(), StatusCode::kPermissionDenied);
+
+  // Player 0 takes a body back from everyone.
+  v1::SetOwnershipRequest take;
+  *take.add_bodies() = a;
+  ASSERT_TRUE(session->set_ownership(take, &given).ok());
+  EXPECT_EQ(push(two, a).code(), StatusCode::kPermissionDenied);
+  ASSERT_TRUE(session->step(1, std::nullopt, false, nullptr, &stepped).ok());
+  const v1::ConfirmedTick& taken = events->confirmed.back();
+  ASSERT_EQ(taken.owners_changed_size(), 1);
+  EXPECT_EQ(taken.owners_changed(0).player_id(), two.player_id());
+  EXPECT_EQ(taken.owners_changed(0).bodies_size(), 0);
+}
+
+}  // namespace
+}  // namespace fulcrum::server

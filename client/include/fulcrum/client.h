@@ -286,6 +286,8 @@ class Client {
                                                     const v1::SessionOptions& options) = 0;
   // request.fingerprint: fulcrum::kDeterminismFingerprint for a client that simulates.
   virtual Result<v1::JoinSessionReply> join_session(const v1::JoinSessionRequest& request) = 0;
+  // The world owner gives bodies and joints to a player (0: to none); all of them or none.
+  virtual Result<v1::SetOwnershipReply> set_ownership(const v1::SetOwnershipRequest& request) = 0;
   virtual Result<v1::SendInputReply> send_input(uint64_t world, const v1::JoinSessionReply& player,
                                                 int64_t tick, const v1::EditBatch& input) = 0;
   // A desync report (LockstepWorld::take_report): world_id, player_id and player_secret are

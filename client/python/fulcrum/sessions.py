@@ -56,6 +56,19 @@ def join(world, bodies, joints, name, fingerprint):
                   reply.first_input_tick)
 
 
+def set_ownership(world, player, bodies, joints):
+    player_id = player if isinstance(player, int) else getattr(player, "player_id", None)
+    if not isinstance(player_id, int) or isinstance(player_id, bool) or player_id < 0:
+        raise invalid_argument("player_id",
+                               f"expected a Player, a player id or 0 (got {player!r})")
+    request = session_pb2.SetOwnershipRequest(world_id=world.id, player_id=player_id)
+    for i, body in enumerate(bodies):
+        request.bodies.append(to_handle(body, f"bodies[{i}]"))
+    for i, joint in enumerate(joints):
+        request.joints.append(to_handle(joint, f"joints[{i}]"))
+    return world.client._call("SetOwnership", request)
+
+
 def send_input(world, player, tick, edits):
     batch = message_of(edits, edit_pb2.EditBatch, "input")
     request = session_pb2.SendInputRequest(world_id=world.id, player_id=player.player_id,

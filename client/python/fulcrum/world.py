@@ -121,6 +121,13 @@ class World(EditMethods):
         returns a Player (id, secret, first_input_tick)."""
         return sessions.join(self, bodies, joints, name, fingerprint)
 
+    def set_ownership(self, player, bodies=(), joints=()):
+        """As the world's owner: gives `bodies` and `joints` (Handles, pairs or scene indices)
+        to `player` (a Player or its id; 0: to no player), from whoever owned them. All of
+        them or none. Returns the SetOwnershipReply (`tick`: inputs arriving from then on
+        are checked against the new ownership)."""
+        return sessions.set_ownership(self, player, bodies, joints)
+
     def send_input(self, player, tick, edits):
         """The player's input for `tick`: an EditBatch or its dict form ({"edits": [...]}),
         forces, impulses, torques and velocities on its bodies, motor speeds and targets on its
