@@ -20,7 +20,6 @@ namespace fulcrum::server {
 namespace {
 
 constexpr uint32_t kDefaultPlayers = 8;
-constexpr uint32_t kMaxPlayers = 64;
 constexpr uint32_t kMaxInputDelay = 600;
 constexpr uint32_t kDefaultLead = 600;
 constexpr uint32_t kMaxLead = 36000;
@@ -150,6 +149,21 @@ Status GameSession::join(const v1::JoinSessionRequest& request, const World& wor
   p.name = request.name();
   FULCRUM_RETURN_IF_ERROR(
       check_objects(request.bodies(), request.joints(), world, true, &p.bodies, &p.joints));
+  // Then what the scene gave this player id, where still alive and no player's.
+  if (auto scene = scene_owners_.find(p.id); scene != scene_owners_.end()) {
+    for (BodyId b : scene->second.bodies) {
+      if (world.body_state(b).ok() && body_owner_.count(key_of(b)) == 0 &&
+          std::find(p.bodies.begin(), p.bodies.end(), b) == p.bodies.end()) {
+        p.bodies.push_back(b);
+      }
+    }
+    for (JointId j : scene->second.joints) {
+      if (world.joint_state(j).ok() && joint_owner_.count(key_of(j)) == 0 &&
+          std::find(p.joints.begin(), p.joints.end(), j) == p.joints.end()) {
+        p.joints.push_back(j);
+      }
+    }
+  }
   p.secret = random_secret();
   for (BodyId b : p.bodies) body_owner_[key_of(b)] = p.id;
   for (JointId j : p.joints) joint_owner_[key_of(j)] = p.id;
@@ -158,6 +172,16 @@ Status GameSession::join(const v1::JoinSessionRequest& request, const World& wor
   reply->set_tick(world.tick());
   p.first_input_tick = world.tick() + options_.input_delay();
   reply->set_first_input_tick(p.first_input_tick);
+  for (BodyId b : p.bodies) {
+    v1::Handle* h = reply->add_bodies();
+    h->set_index(b.index);
+    h->set_generation(b.generation);
+  }
+  for (JointId j : p.joints) {
+    v1::Handle* h = reply->add_joints();
+    h->set_index(j.index);
+    h->set_generation(j.generation);
+  }
   joined_.push_back(p.id);
   players_.emplace(p.id, std::move(p));
   return {};
@@ -516,6 +540,7 @@ Status Session::open_session(const v1::OpenSessionRequest& request, v1::OpenSess
     return failed_precondition("world_id: world " + std::to_string(id_) + " is a session already");
   }
   game_ = std::make_unique<GameSession>(options, world_);
+  game_->set_scene_owners(scene_owners_);
   reply->set_tick(world_.tick());
   *reply->mutable_options() = options;
   reply->set_fingerprint(kDeterminismFingerprint);
@@ -546,6 +571,11 @@ Status Session::join_session(const v1::JoinSessionRequest& request, v1::JoinSess
                               {"bodies", request.bodies_size()},
                               {"joints", request.joints_size()}});
   return {};
+}
+
+void Session::set_scene_owners(std::map<uint32_t, GameSession::SceneOwned> owners) {
+  Hold hold(this);
+  scene_owners_ = std::move(owners);
 }
 
 Status Session::set_ownership(const v1::SetOwnershipRequest& request,

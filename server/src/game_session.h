@@ -38,11 +38,21 @@ class GameSession {
 
   // INVALID_ARGUMENT naming the field when an option is out of range; fills in the defaults.
   static Status check_options(v1::SessionOptions* options);
+  static constexpr uint32_t kMaxPlayers = 64;  // SessionOptions.max_players at most
 
   const v1::SessionOptions& options() const { return options_; }
 
   Status join(const v1::JoinSessionRequest& request, const World& world,
               v1::JoinSessionReply* reply);
+  // What the scene gave each player (Body.player, Joint.player): a player joining takes the
+  // ones still alive and no player's.
+  struct SceneOwned {
+    std::vector<BodyId> bodies;
+    std::vector<JointId> joints;
+  };
+  void set_scene_owners(std::map<uint32_t, SceneOwned> owners) {
+    scene_owners_ = std::move(owners);
+  }
   // The world owner's SetOwnership: all of it or none.
   Status set_ownership(const v1::SetOwnershipRequest& request, const World& world);
   // Checks the player, the tick and the input (the edit kinds an input may hold, on the
@@ -126,9 +136,10 @@ class GameSession {
   std::map<uint64_t, uint32_t> joint_owner_;
   std::map<int64_t, std::map<uint32_t, v1::EditBatch>> inputs_;  // by tick, then player
   std::vector<Batch> pending_;
-  std::vector<uint32_t> joined_;       // players joined since the last confirmed tick
-  std::set<uint32_t> owners_changed_;  // players SetOwnership changed since then
-  ConfirmedHistory history_;           // confirmed hashes and keyframes, for desync reports
+  std::vector<uint32_t> joined_;                 // players joined since the last confirmed tick
+  std::set<uint32_t> owners_changed_;            // players SetOwnership changed since then
+  std::map<uint32_t, SceneOwned> scene_owners_;  // by player id
+  ConfirmedHistory history_;  // confirmed hashes and keyframes, for desync reports
 };
 
 }  // namespace fulcrum::server

@@ -352,9 +352,45 @@ grpc::Status PhysicsService::CreateWorld(grpc::ServerContext* context,
     h->set_index(id.index);
     h->set_generation(id.generation);
   }
+  // Ownership the scene declares for multiplayer sessions: explicit bodies and joints come
+  // last in the world, in the scene's order.
+  std::map<uint32_t, GameSession::SceneOwned> owners;
+  const v1::Scene& sp = request->scene();
+  const int first_body = reply->bodies_size() - sp.bodies_size();
+  for (int i = 0; i < sp.bodies_size(); ++i) {
+    const uint32_t player = sp.bodies(i).player();
+    if (player == 0) continue;
+    const std::string field = "scene.bodies[" + std::to_string(i) + "].player";
+    if (player > GameSession::kMaxPlayers) {
+      return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                          field + ": at most " + std::to_string(GameSession::kMaxPlayers) +
+                              " (got " + std::to_string(player) + ")");
+    }
+    if (sp.bodies(i).type() == v1::BODY_TYPE_STATIC) {
+      return grpc::Status(
+          grpc::StatusCode::INVALID_ARGUMENT,
+          field + ": a static body cannot be a player's (inputs could not move it)");
+    }
+    const v1::Handle& h = reply->bodies(first_body + i);
+    owners[player].bodies.push_back(BodyId{h.index(), h.generation()});
+  }
+  const int first_joint = reply->joints_size() - sp.joints_size();
+  for (int i = 0; i < sp.joints_size(); ++i) {
+    const uint32_t player = sp.joints(i).player();
+    if (player == 0) continue;
+    if (player > GameSession::kMaxPlayers) {
+      return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                          "scene.joints[" + std::to_string(i) + "].player: at most " +
+                              std::to_string(GameSession::kMaxPlayers) + " (got " +
+                              std::to_string(player) + ")");
+    }
+    const v1::Handle& h = reply->joints(first_joint + i);
+    owners[player].joints.push_back(JointId{h.index(), h.generation()});
+  }
   Result<std::shared_ptr<Session>> session =
       registry_->create(request->scene().name(), std::move(world).value());
   if (!session.ok()) return to_grpc_status(session.status());
+  if (!owners.empty()) (*session)->set_scene_owners(std::move(owners));
   reply->set_world_id((*session)->id());
   (*session)->info(reply->mutable_world());
   return grpc::Status::OK;

@@ -131,6 +131,9 @@ class Session : public std::enable_shared_from_this<Session> {
   // --- Multiplayer sessions (game_session.cpp) ---
   Status open_session(const v1::OpenSessionRequest& request, v1::OpenSessionReply* reply);
   Status join_session(const v1::JoinSessionRequest& request, v1::JoinSessionReply* reply);
+  // What the world's scene gave each player id (Body.player, Joint.player), for a session
+  // opened later.
+  void set_scene_owners(std::map<uint32_t, GameSession::SceneOwned> owners);
   Status set_ownership(const v1::SetOwnershipRequest& request, v1::SetOwnershipReply* reply);
   // Holds the input for its tick; with SEAL_RULE_ALL_INPUTS and the world paused, then steps
   // every tick whose inputs are all in.
@@ -221,7 +224,8 @@ class Session : public std::enable_shared_from_this<Session> {
   int64_t last_replay_start_tick_ = 0;
   int64_t last_replay_ticks_ = 0;
   std::string recording_error_;
-  std::unique_ptr<GameSession> game_;             // set once by OpenSession; guarded by mu_
+  std::unique_ptr<GameSession> game_;  // set once by OpenSession; guarded by mu_
+  std::map<uint32_t, GameSession::SceneOwned> scene_owners_;  // from the scene; guarded by mu_
   std::mutex run_mode_mu_;                        // one SetRunMode at a time (taken before mu_)
   std::atomic<int64_t> busy_retries_pending_{0};  // wakes that found the world held
 

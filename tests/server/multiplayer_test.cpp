@@ -435,3 +435,67 @@ TEST_F(MultiplayerTest, APlayerWhoseWatchEndsNoLongerHoldsUpTheTurn) {
 
 }  // namespace
 }  // namespace fulcrum
+
+namespace fulcrum {
+namespace {
+
+// A scene gives bodies and joints to player ids (Body.player, Joint.player): a player joining
+// with that id owns them with what it asked for, and the reply lists all it owns. A chain of 4
+// links (a builder's bodies and joints first), then two explicit boxes and a joint between
+// them: box 0 and the joint are player 2's, box 1 player 1's.
+TEST_F(MultiplayerTest, TheSceneGivesBodiesAndJointsToPlayerIds) {
+  start();
+  v1::CreateWorldRequest request;
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(
+                  R"({"builders": [{"jointChain": {"links": 4}}],
+                      "bodies": [
+                        {"type": "BODY_TYPE_DYNAMIC", "position": {"x": -3, "y": 5}, "player": 2,
+                         "shapes": [{"box": {"halfWidth": 0.5, "halfHeight": 0.5}}]},
+                        {"type": "BODY_TYPE_DYNAMIC", "position": {"x": 3, "y": 5}, "player": 1,
+                         "shapes": [{"box": {"halfWidth": 0.5, "halfHeight": 0.5}}]}],
+                      "joints": [{"bodyA": 5, "bodyB": 6, "player": 2,
+                                  "distance": {"length": 6}}]})",
+                  request.mutable_scene())
+                  .ok());
+  v1::CreateWorldReply created;
+  auto c = context();
+  grpc::Status s = stub_->CreateWorld(c.get(), request, &created);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  ASSERT_EQ(created.bodies_size(), 7);  // the chain's anchor and 4 links, the two boxes
+  ASSERT_EQ(created.joints_size(), 5);  // 4 of the chain, the explicit one
+  const uint64_t id = created.world_id();
+  ASSERT_TRUE(open(id, v1::SessionOptions()).ok());
+  v1::JoinSessionReply one = join(id, {});
+  ASSERT_TRUE(last_.ok()) << last_.error_message();
+  ASSERT_EQ(one.bodies_size(), 1);
+  EXPECT_EQ(one.bodies(0).index(), created.bodies(6).index());
+  EXPECT_EQ(one.joints_size(), 0);
+  v1::JoinSessionReply two = join(id, {1});  // a link asked for, then the scene's box 0
+  ASSERT_TRUE(last_.ok()) << last_.error_message();
+  ASSERT_EQ(two.bodies_size(), 2);
+  EXPECT_EQ(two.bodies(0).index(), 1u);
+  EXPECT_EQ(two.bodies(1).index(), created.bodies(5).index());
+  ASSERT_EQ(two.joints_size(), 1);
+  EXPECT_EQ(two.joints(0).index(), created.joints(4).index());
+  // Player 1 cannot push player 2's box.
+  s = send(id, one, 0, impulse(static_cast<int>(created.bodies(5).index()), 1.0));
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::PERMISSION_DENIED);
+  EXPECT_TRUE(send(id, two, 0, impulse(static_cast<int>(created.bodies(5).index()), 1.0)).ok());
+
+  // Refused whole, naming the field: a static body given to a player, a player past 64.
+  request.mutable_scene()->mutable_bodies(0)->set_type(v1::BODY_TYPE_STATIC);
+  auto c2 = context();
+  s = stub_->CreateWorld(c2.get(), request, &created);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(s.error_message().rfind("scene.bodies[0].player: a static body", 0), 0u)
+      << s.error_message();
+  request.mutable_scene()->mutable_bodies(0)->set_type(v1::BODY_TYPE_DYNAMIC);
+  request.mutable_scene()->mutable_joints(0)->set_player(65);
+  auto c3 = context();
+  s = stub_->CreateWorld(c3.get(), request, &created);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(s.error_message(), "scene.joints[0].player: at most 64 (got 65)");
+}
+
+}  // namespace
+}  // namespace fulcrum
