@@ -324,17 +324,23 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
       const bool driven = j.enable_motor || j.type == JointType::kMotor;
       if (!o.is_dynamic() && (o.awake || driven)) island_need[k] = -1;
     }
-    for (int e = bodies[bi].contact_list; e != kNullIndex;) {
-      const Contact& c = contacts[edge_contact(e)];
-      e = c.edges[edge_side(e)].next;
-      if (!c.touching || c.sensor) continue;
-      const int other = c.body_a == bi ? c.body_b : c.body_a;
-      const Body& o = bodies[other];
-      if (o.type == BodyType::kKinematic) {
-        island_need[k] = -1;
-      } else if (o.is_dynamic() && o.awake) {
-        unite(parent, k, slot[other] - 1);
-      }
+  }
+  // Touching contacts, in one pass over the contact pool (in memory order: far cheaper than
+  // walking every body's list, and the islands are the same whatever the order).
+  auto awake_dynamic = [&](int body) {
+    const int k = slot[body] - 1;
+    return k >= 0 && k < n && awake[k] == body && bodies[body].is_dynamic() ? k : -1;
+  };
+  for (const Contact& c : contacts) {
+    if (!c.alive || !c.touching || c.sensor) continue;
+    const int ka = awake_dynamic(c.body_a);
+    const int kb = awake_dynamic(c.body_b);
+    if (ka >= 0 && kb >= 0) {
+      unite(parent, ka, kb);
+    } else if (ka >= 0 && bodies[c.body_b].type == BodyType::kKinematic) {
+      island_need[ka] = -1;
+    } else if (kb >= 0 && bodies[c.body_a].type == BodyType::kKinematic) {
+      island_need[kb] = -1;
     }
   }
   // A contact carries at most its island's weight: an impact's impulse does not buy a budget.
