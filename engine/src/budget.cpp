@@ -186,16 +186,19 @@ std::optional<RecoveryRule> WorldImpl::recovery_rule() const {
 
 bool WorldImpl::recovering(const Contact& c, const RecoveryRule& rule) const {
   if (c.sensor || c.manifold.count == 0) return false;
-  const Body& a = bodies[c.body_a];
-  const Body& b = bodies[c.body_b];
-  const double cap2 = rule.cap * rule.cap;
-  if (a.v.squaredNorm() > cap2 || b.v.squaredNorm() > cap2) return false;
   double depth = 0.0;
   for (int i = 0; i < c.manifold.count; ++i) {
     depth = std::max(depth, -c.manifold.points[i].separation);
   }
+  // Most contacts are shallower than the cap's reach even at the stiffer rate: done, without
+  // reading the bodies.
+  if (rule.fixed_rate * depth < rule.cap) return false;
+  const Body& a = bodies[c.body_a];
+  const Body& b = bodies[c.body_b];
   const bool fixed = !a.is_dynamic() || !b.is_dynamic();
-  return (fixed ? rule.fixed_rate : rule.rate) * depth >= rule.cap;
+  if (!fixed && rule.rate * depth < rule.cap) return false;
+  const double cap2 = rule.cap * rule.cap;
+  return a.v.squaredNorm() <= cap2 && b.v.squaredNorm() <= cap2;
 }
 
 bool WorldImpl::plan_joint_needs(const std::vector<int>& awake, double g) {
