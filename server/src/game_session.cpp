@@ -112,19 +112,25 @@ Status GameSession::check_options(v1::SessionOptions* o) {
   return {};
 }
 
+namespace {
+
+// Handles of bodies or joints, in order.
+template <class Id>
+void add_handles(const std::vector<Id>& ids, google::protobuf::RepeatedPtrField<v1::Handle>* out) {
+  for (const Id& id : ids) {
+    v1::Handle* h = out->Add();
+    h->set_index(id.index);
+    h->set_generation(id.generation);
+  }
+}
+
+}  // namespace
+
 void GameSession::player_to_proto(const Player& p, v1::PlayerInfo* out) const {
   out->set_player_id(p.id);
   out->set_name(p.name);
-  for (BodyId b : p.bodies) {
-    v1::Handle* h = out->add_bodies();
-    h->set_index(b.index);
-    h->set_generation(b.generation);
-  }
-  for (JointId j : p.joints) {
-    v1::Handle* h = out->add_joints();
-    h->set_index(j.index);
-    h->set_generation(j.generation);
-  }
+  add_handles(p.bodies, out->mutable_bodies());
+  add_handles(p.joints, out->mutable_joints());
 }
 
 Status GameSession::join(const v1::JoinSessionRequest& request, const World& world,
@@ -172,16 +178,8 @@ Status GameSession::join(const v1::JoinSessionRequest& request, const World& wor
   reply->set_tick(world.tick());
   p.first_input_tick = world.tick() + options_.input_delay();
   reply->set_first_input_tick(p.first_input_tick);
-  for (BodyId b : p.bodies) {
-    v1::Handle* h = reply->add_bodies();
-    h->set_index(b.index);
-    h->set_generation(b.generation);
-  }
-  for (JointId j : p.joints) {
-    v1::Handle* h = reply->add_joints();
-    h->set_index(j.index);
-    h->set_generation(j.generation);
-  }
+  add_handles(p.bodies, reply->mutable_bodies());
+  add_handles(p.joints, reply->mutable_joints());
   joined_.push_back(p.id);
   players_.emplace(p.id, std::move(p));
   return {};
