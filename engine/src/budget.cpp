@@ -72,7 +72,7 @@ void unite(std::vector<int>& parent, int a, int b) {
 
 namespace {
 
-// A recovering island (budget.cpp's header): kRecoveryRelax times the relax passes and
+// A recovering island (see the file comment): kRecoveryRelax times the relax passes and
 // kRecoveryCap times the cap on push-out speed.
 constexpr int kRecoveryRelax = 3;
 constexpr double kRecoveryCap = 2.0;
@@ -258,6 +258,11 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   std::vector<int>& slot = solver_scratch.body_slot;  // body -> 1 + position in `awake`
   if (slot.size() < bodies.size()) slot.resize(bodies.size(), 0);
   for (int k = 0; k < n; ++k) slot[awake[k]] = k + 1;
+  // A body's position in `awake` if it is there and dynamic; -1 otherwise.
+  auto awake_dynamic = [&](int body) {
+    const int k = slot[body] - 1;
+    return k >= 0 && k < n && awake[k] == body && bodies[body].is_dynamic() ? k : -1;
+  };
 
   // Joint components: mass and weakest joint (first per body, then per component).
   std::vector<int>& parent = scratch_parent;
@@ -299,8 +304,8 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   for (int ci : budget.recovering) {
     const Contact& c = contacts[ci];
     for (int bi : {c.body_a, c.body_b}) {
-      if (bodies[bi].is_dynamic() && bodies[bi].awake) {
-        relax_need[slot[bi] - 1] = kRecoveryRelax * settings.relax_iterations;
+      if (const int k = awake_dynamic(bi); k >= 0) {
+        relax_need[k] = kRecoveryRelax * settings.relax_iterations;
         more = true;
       }
     }
@@ -330,10 +335,6 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   }
   // Touching contacts, in one pass over the contact pool (in memory order: far cheaper than
   // walking every body's list, and the islands are the same whatever the order).
-  auto awake_dynamic = [&](int body) {
-    const int k = slot[body] - 1;
-    return k >= 0 && k < n && awake[k] == body && bodies[body].is_dynamic() ? k : -1;
-  };
   for (const Contact& c : contacts) {
     if (!c.alive || !c.touching || c.sensor) continue;
     const int ka = awake_dynamic(c.body_a);

@@ -112,6 +112,7 @@ void WorldImpl::collide() {
   budget.most_pressed = 0.0;
   budget.recovering.clear();
   const std::optional<ContactPress> press = contact_press();
+  const std::optional<RecoveryRule> recovery = recovery_rule();
   if (press) {
     contact_pressed.resize(contacts.size(), 0.0);
     contact_reach.resize(contacts.size(), 0.0);
@@ -121,12 +122,13 @@ void WorldImpl::collide() {
   size_t first_new = 0;
   while (first_new < awake_bodies.size()) {
     size_t end = awake_bodies.size();
-    collide_round(first_new, end, press);
+    collide_round(first_new, end, press, recovery);
     first_new = end;
   }
 }
 
-void WorldImpl::collide_round(size_t first, size_t end, const std::optional<ContactPress>& press) {
+void WorldImpl::collide_round(size_t first, size_t end, const std::optional<ContactPress>& press,
+                              const std::optional<RecoveryRule>& recovery) {
   // Gather the contacts of these awake bodies not yet seen this step (each once), in contact
   // id order.
   std::vector<int>& list = scratch_contacts;
@@ -197,7 +199,6 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
   chunk_pressed.assign(press ? chunks : 0, 0.0);
   // With recovery budgets on, each chunk's recovering contacts (budget.cpp), gathered in id
   // order.
-  const std::optional<RecoveryRule> recovery = recovery_rule();
   std::vector<std::vector<int>>& chunk_recovering = scratch_chunk_recovering;
   if (recovery && chunk_recovering.size() < static_cast<size_t>(chunks)) {
     chunk_recovering.resize(chunks);

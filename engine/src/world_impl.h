@@ -164,8 +164,10 @@ class WorldImpl {
   // Refreshes the manifolds of contacts with an awake body; destroys contacts whose boxes
   // stopped overlapping; reports begin/end events; wakes bodies touched by awake ones.
   void collide();
-  // awake_bodies[first, end); with `press`, each contact's load figures too (press_contact).
-  void collide_round(size_t first, size_t end, const std::optional<ContactPress>& press);
+  // awake_bodies[first, end); with `press`, each contact's load figures too (press_contact),
+  // and with `recovery`, the recovering contacts (budget.recovering).
+  void collide_round(size_t first, size_t end, const std::optional<ContactPress>& press,
+                     const std::optional<RecoveryRule>& recovery);
   void destroy_body_contacts(int body);
 
   // --- islands and sleep (island.cpp) ---
