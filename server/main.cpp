@@ -92,6 +92,9 @@ ABSL_FLAG(bool, agones, false,
 ABSL_FLAG(int64_t, agones_health_ms, 2000,
           "with --agones: the Health ping period in ms, 100 to 60000 (below the GameServer's "
           "health periodSeconds)");
+ABSL_FLAG(int64_t, agones_ready_ms, 30000,
+          "with --agones: how long Ready is retried while the SDK sidecar is not answering, in "
+          "ms, 1000 to 600000; the server then exits 1");
 ABSL_FLAG(std::string, log, "on",
           "on|off: one key=value line per world event and refused request on stderr");
 
@@ -123,6 +126,7 @@ std::vector<const absl::CommandLineFlag*> fulcrum_flags() {
           &absl::GetFlagReflectionHandle(FLAGS_metrics_listen),
           &absl::GetFlagReflectionHandle(FLAGS_agones),
           &absl::GetFlagReflectionHandle(FLAGS_agones_health_ms),
+          &absl::GetFlagReflectionHandle(FLAGS_agones_ready_ms),
           &absl::GetFlagReflectionHandle(FLAGS_tls_cert),
           &absl::GetFlagReflectionHandle(FLAGS_tls_key),
           &absl::GetFlagReflectionHandle(FLAGS_max_reader_stall_ms),
@@ -336,6 +340,7 @@ int options_from_flags(fulcrum::server::ServerOptions* options, int64_t* grace_m
   options->replay_dir = absl::GetFlag(FLAGS_replay_dir);
   options->metrics_listen = absl::GetFlag(FLAGS_metrics_listen);
   if (!in_range(FLAGS_agones_health_ms, 100, 60000, &n, &error)) return usage_error(error);
+  if (!in_range(FLAGS_agones_ready_ms, 1000, 600000, &n, &error)) return usage_error(error);
   const std::string log = absl::GetFlag(FLAGS_log);
   if (log != "on" && log != "off")
     return usage_error("--log: expected on or off, got '" + log + "'");
@@ -427,9 +432,10 @@ int main(int argc, char** argv) {
   std::unique_ptr<fulcrum::server::AgonesSdk> agones;
   if (absl::GetFlag(FLAGS_agones)) {
     const int64_t health_ms = absl::GetFlag(FLAGS_agones_health_ms);  // checked with the rest
+    const int64_t ready_ms = absl::GetFlag(FLAGS_agones_ready_ms);
     const std::string sdk_address = fulcrum::server::AgonesSdk::address_from_environment();
     agones = std::make_unique<fulcrum::server::AgonesSdk>(sdk_address);
-    fulcrum::Status ready = agones->ready(std::chrono::seconds(30));
+    fulcrum::Status ready = agones->ready(std::chrono::milliseconds(ready_ms));
     if (!ready.ok()) {
       std::cerr << "fulcrum-server: " << ready.message() << " (the SDK sidecar at " << sdk_address
                 << ")\n";
