@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
-# Determinism across builds: the same scenes, stepped by a gcc -O0 build and a clang -O2 build of
-# the `fulcrum` CLI, must end with the same state hash as the main build (gcc -O2); and the
+# Determinism across builds: the same scenes, stepped by gcc -O0, clang -O0 and clang -O2 builds
+# of the `fulcrum` CLI, must end with the same state hash as the main build (gcc -O2); and the
 # golden scenarios (tests/golden: edits between ticks, sleeping, every joint type) must give the
 # main build's fulcrum_golden output line for line, i.e. the same hash at every tick; and a bot
 # player of each variant follows a multiplayer session on a main-build server for 10 000 ticks,
 # checking every confirmed tick's hash. Run by tools/test.sh after the test suite; builds land in
-# build-det-gcc-O0/ and build-det-clang-O2/.
+# build-det-VARIANT/.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 
@@ -37,7 +37,9 @@ build_variant() {  # name, then extra cmake arguments
   }
 }
 
+VARIANTS=(gcc-O0 clang-O0 clang-O2)
 build_variant gcc-O0 -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_COMPILER=g++
+build_variant clang-O0 -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_COMPILER=clang++
 build_variant clang-O2 -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_COMPILER=clang++
 
 # No fused multiply-add in the x86-64 engine either: the 4-lane contact path is built with
@@ -54,7 +56,7 @@ failed=0
 passed=0
 for scene in "${SCENES[@]}"; do
   reference=$(hash_of "$FULCRUM_BUILD/bin/fulcrum" "$scene")
-  for variant in gcc-O0 clang-O2; do
+  for variant in "${VARIANTS[@]}"; do
     got=$(hash_of "$FULCRUM_ROOT/build-det-$variant/bin/fulcrum" "$scene")
     if [ "$got" = "$reference" ] && [ -n "$got" ]; then
       passed=$((passed + 1))
@@ -69,7 +71,7 @@ done
 # build, every instruction path of the contact solver this CPU runs (scalar, 2 lanes, and 4
 # lanes where the CPU has AVX2) and 1 to 4 threads: all must give the same bits.
 golden_reference=$("$FULCRUM_BUILD/bin/fulcrum_golden")
-for variant in main gcc-O0 clang-O2; do
+for variant in main "${VARIANTS[@]}"; do
   golden_bin="$FULCRUM_ROOT/build-det-$variant/bin/fulcrum_golden"
   [ "$variant" = main ] && golden_bin="$FULCRUM_BUILD/bin/fulcrum_golden"
   for run in scalar:1 lanes2:1 lanes4:1 auto:2 auto:3 lanes2:4; do
@@ -86,10 +88,10 @@ for variant in main gcc-O0 clang-O2; do
       "$golden_reference" "$got" "$golden_bin" --simd "$simd" --threads "$threads"
   done
 done
-# A multiplayer session across builds: a server of the main build (gcc -O2) and two bot players,
-# one built by each variant, each stepping its own copy of the world with every confirmed tick
+# A multiplayer session across builds: a server of the main build (gcc -O2) and a bot player
+# built by each variant, each stepping its own copy of the world with every confirmed tick
 # and checking the server's state hash at each (`fulcrum session bot` exits 1 at the first that
-# differs). Turn by turn (--seal all-inputs), so every tick waits for both bots' inputs.
+# differs). Turn by turn (--seal all-inputs), so every tick waits for every bot's input.
 session_ticks=${FULCRUM_DET_SESSION_TICKS:-10000}
 server_log=$(mktemp)
 "$FULCRUM_BUILD/bin/fulcrum-server" --listen 127.0.0.1:0 > "$server_log" 2>&1 &
@@ -104,21 +106,21 @@ done
 cli="$FULCRUM_BUILD/bin/fulcrum"
 if [ -z "$address" ] ||
   ! "$cli" create --server "$address" --scene "$FULCRUM_ROOT/scenes/pyramid.json" > /dev/null ||
-  ! "$cli" session open 1 --server "$address" --players 2 --seal all-inputs > /dev/null; then
+  ! "$cli" session open 1 --server "$address" --players "${#VARIANTS[@]}" --seal all-inputs > /dev/null; then
   cat "$server_log"
   echo "determinism: could not open the session on a main-build server"
   failed=$((failed + 1))
 else
   bot_pids=()
   body=210
-  for variant in gcc-O0 clang-O2; do
+  for variant in "${VARIANTS[@]}"; do
     "$FULCRUM_ROOT/build-det-$variant/bin/fulcrum" session bot 1 --server "$address" \
       --bodies "$body" --name "$variant" --ticks "$session_ticks" \
       > "$FULCRUM_ROOT/build-det-$variant/session-bot.log" 2>&1 &
     bot_pids+=($!)
     body=$((body - 1))
   done
-  for variant in gcc-O0 clang-O2; do
+  for variant in "${VARIANTS[@]}"; do
     if wait "${bot_pids[0]}"; then
       passed=$((passed + 1))
       tail -n 1 "$FULCRUM_ROOT/build-det-$variant/session-bot.log" | sed "s/^/determinism: $variant bot: /"
