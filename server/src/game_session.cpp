@@ -628,7 +628,13 @@ Status Session::watch_session(std::shared_ptr<SessionWatcher> watcher, uint32_t 
     game_->presence(player_id, +1);
   }
   watcher->offer(game_->start_event(world_));
-  std::lock_guard<std::mutex> wl(session_watchers_mu_);
+  std::unique_lock<std::mutex> wl(session_watchers_mu_);
+  if (session_watchers_closed_) {  // close_streams ran while this call was on its way
+    const Status closed = *session_watchers_closed_;
+    wl.unlock();
+    watcher->close(closed);
+    return {};
+  }
   session_watchers_.push_back(std::move(watcher));
   return {};
 }

@@ -363,7 +363,13 @@ Status Session::query(const v1::QueryRequest& request, v1::QueryReply* reply) {
 
 void Session::subscribe(std::shared_ptr<FrameSink> sink) {
   {
-    std::lock_guard<std::mutex> wl(watchers_mu_);
+    std::unique_lock<std::mutex> wl(watchers_mu_);
+    if (closed_) {
+      const Closed closed = *closed_;
+      wl.unlock();
+      sink->close(closed.status, closed.shutting_down);
+      return;
+    }
     Watcher w;
     w.key = sink.get();
     w.every = sink->every_ticks();
@@ -383,22 +389,23 @@ void Session::close_streams(const Status& status, bool shutting_down) {
   std::vector<std::shared_ptr<FrameSink>> sinks;
   {
     std::lock_guard<std::mutex> wl(watchers_mu_);
+    closed_ = Closed{status, shutting_down};
     for (Watcher& w : watchers_) {
       if (auto s = w.sink.lock()) sinks.push_back(std::move(s));
     }
     watchers_.clear();
   }
   for (auto& s : sinks) s->close(status, shutting_down);
+  const Status closed =
+      shutting_down ? Status(StatusCode::kUnavailable, "the server is stopping") : status;
   std::vector<std::weak_ptr<SessionWatcher>> session_watchers;
   {
     std::lock_guard<std::mutex> wl(session_watchers_mu_);
+    session_watchers_closed_ = closed;
     session_watchers.swap(session_watchers_);
   }
   for (auto& w : session_watchers) {
-    if (auto watcher = w.lock()) {
-      watcher->close(shutting_down ? Status(StatusCode::kUnavailable, "the server is stopping")
-                                   : status);
-    }
+    if (auto watcher = w.lock()) watcher->close(closed);
   }
 }
 

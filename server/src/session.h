@@ -112,7 +112,9 @@ class Session : public std::enable_shared_from_this<Session> {
   // holds the world next (at once when it is idle).
   void subscribe(std::shared_ptr<FrameSink> sink);
   void unsubscribe(const FrameSink* sink);
-  // Ends every stream (world deleted or server stopping).
+  // Ends every stream (world deleted or server stopping), and every stream that subscribes or
+  // watches later, at once: a stream whose handler was between its checks and subscribe() while
+  // this ran would otherwise wait for the shutdown's grace period to run out.
   void close_streams(const Status& status, bool shutting_down);
 
   // --- Real time (clock.cpp) ---
@@ -232,13 +234,19 @@ class Session : public std::enable_shared_from_this<Session> {
   std::mutex summary_mu_;  // guards summary_ (never held with another lock taken after it)
   v1::WorldInfo summary_;  // without settings or watchers
 
-  std::mutex watchers_mu_;  // guards watchers_; taken after mu_ when both are held
+  std::mutex watchers_mu_;  // guards watchers_ and closed_; taken after mu_ when both are held
   std::vector<Watcher> watchers_;
+  struct Closed {
+    Status status;
+    bool shutting_down = false;
+  };
+  std::optional<Closed> closed_;  // set by close_streams
   std::atomic<bool> any_need_first_{false};
 
   // WatchSession streams; taken after mu_ when both are held.
   std::mutex session_watchers_mu_;
   std::vector<std::weak_ptr<SessionWatcher>> session_watchers_;
+  std::optional<Status> session_watchers_closed_;  // set by close_streams
 };
 
 // FAILED_PRECONDITION naming the world's tick when `expected` is set and differs from it.

@@ -44,6 +44,28 @@ class Events final : public SessionWatcher {
   std::deque<v1::ConfirmedTick> confirmed;
 };
 
+// A session watcher arriving after the world's streams were closed (the server stopping while
+// its WatchSession call was on its way) is closed at once with UNAVAILABLE, as those before it.
+TEST(GameSession, WatchersArrivingAfterTheStreamsClosedAreClosedAtOnce) {
+  struct Probe final : SessionWatcher {
+    void offer(std::shared_ptr<const v1::SessionEvent>) override { ++events; }
+    void close(const Status& status) override { closed.push_back(status.code()); }
+    uint32_t player_id() const override { return 0; }
+    int events = 0;
+    std::vector<StatusCode> closed;
+  };
+  std::shared_ptr<Session> session = bounce_session();
+  v1::OpenSessionReply opened;
+  ASSERT_TRUE(session->open_session(v1::OpenSessionRequest(), &opened).ok());
+  auto before = std::make_shared<Probe>();
+  ASSERT_TRUE(session->watch_session(before, 0, "").ok());
+  session->close_streams(Status(StatusCode::kInternal, "the server is stopping"), true);
+  auto after = std::make_shared<Probe>();
+  ASSERT_TRUE(session->watch_session(after, 0, "").ok());
+  EXPECT_EQ(before->closed, std::vector<StatusCode>{StatusCode::kUnavailable});
+  EXPECT_EQ(after->closed, std::vector<StatusCode>{StatusCode::kUnavailable});
+}
+
 // With MISSING_INPUT_REPEAT_LAST, a player's last input stands in for a missing one; when the
 // world refuses it (the owner destroyed the player's body) the stand-in is dropped and its
 // player counted missing, once: the fuzz target found it listed twice.

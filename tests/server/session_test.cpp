@@ -188,6 +188,49 @@ double cpu_seconds() {
          1e-6 * static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
 }
 
+// What a stream was told when it was closed.
+class Probe final : public FrameSink {
+ public:
+  uint32_t every_ticks() const override { return 1; }
+  void offer(std::shared_ptr<const PublishedFrame>) override { ++frames; }
+  void close(const Status& status, bool stopping) override {
+    ++closes;
+    message = status.message();
+    shutting_down = stopping;
+  }
+  int frames = 0;
+  int closes = 0;
+  std::string message;
+  bool shutting_down = false;
+};
+
+// A reader whose handler subscribes after the world's streams were closed (the server began
+// stopping, or the world was deleted, while the call was on its way) is closed at once, as the
+// readers before it were, instead of staying open until the shutdown's grace period runs out:
+// ServerTest.ShutdownEndsStreams once waited its whole 2 s that way.
+TEST(SessionStreams, ReadersArrivingAfterTheStreamsClosedAreClosedAtOnce) {
+  Registry registry{Limits{}};
+  Result<std::shared_ptr<Session>> s = registry.create("mixed", pyramid_world());
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  auto before = std::make_shared<Probe>();
+  (*s)->subscribe(before);
+  EXPECT_EQ(before->frames, 1);  // the first frame, at once: the world is idle
+  EXPECT_EQ(before->closes, 0);
+
+  registry.close_all_streams(Status(StatusCode::kInternal, "the server is stopping"));
+  EXPECT_EQ(before->closes, 1);
+  EXPECT_TRUE(before->shutting_down);
+  auto after = std::make_shared<Probe>();
+  (*s)->subscribe(after);
+  EXPECT_EQ(after->closes, 1);
+  EXPECT_TRUE(after->shutting_down);
+  EXPECT_EQ(after->message, "the server is stopping");
+  EXPECT_EQ(after->frames, 0);
+  v1::WorldInfo info;
+  (*s)->summary(&info);
+  EXPECT_EQ(info.watchers(), 0u);
+}
+
 // The tick length is only checked to be > 0 and at most 1e12 s, so the clock's schedule must
 // hold for any such value. A tick far shorter than a nanosecond (more slots due than an int64
 // holds) runs at the catch-up cap and drops the rest; a tick of 1e12 s (1e21 ns, past int64)
