@@ -109,8 +109,8 @@ constexpr FlagSpec kSessionFlags[] = {
     {"input-delay", "D", "open: inputs are for ticks at least D ahead (default 0)"},
     {"seal", "RULE", "open: on-step (clock or Step, default) or all-inputs (turn by turn)"},
     {"missing", "RULE", "open: a missing input is none (default) or repeat (the last one)"},
-    {"bodies", "I,J:G,...", "bot: the bodies the bot takes and pushes"},
-    {"name", "NAME", "bot: the player's name (default bot)"},
+    {"bodies", "I,J:G,...", "join, bot: the bodies the player takes (bot: and pushes)"},
+    {"name", "NAME", "join, bot: the player's name (default player, bot)"},
     {"seed", "S", "bot: seeds its random impulses (default 1)"},
     {"impulse", "N_S", "bot: the largest impulse per axis, N s (default 1)"},
     {"report-every", "K", "bot: report its state hashes to the server every K ticks (1-1024)"},
@@ -218,9 +218,10 @@ constexpr Command kCommands[] = {
      "checks one service (fulcrum.v1.Physics); default: the whole server. No token needed.\n"
      "The container image's HEALTHCHECK runs it.",
      kHealthFlags, 0, run_health},
-    {"session", "open a world as a multiplayer session, join it as a bot, or watch it",
-     "open WORLD [--players N] [--input-delay D] [--seal on-step|all-inputs]\n"
+    {"session", "open a world as a multiplayer session, join it, play it as a bot, or watch it",
+     "open|create WORLD [--players N] [--input-delay D] [--seal on-step|all-inputs]\n"
      "                 [--missing none|repeat]\n"
+     "       fulcrum session join WORLD [--bodies I,J] [--name NAME]\n"
      "       fulcrum session bot WORLD --bodies I,J [--ticks N] [--seed S] [--impulse N_S]\n"
      "                 [--report-every K]\n"
      "       fulcrum session watch WORLD [--ticks N]",
@@ -231,7 +232,8 @@ constexpr Command kCommands[] = {
      "on-step the world moves by `fulcrum run` or `fulcrum step`; with all-inputs it steps as\n"
      "soon as every player's input for its next tick is in. With --report-every the bot also\n"
      "reports its hashes to the server (ReportHash) every K ticks, and at a desync sends its\n"
-     "snapshot of the tick so that the server names the first field that differs.",
+     "snapshot of the tick so that the server names the first field that differs. `join`\n"
+     "takes a player slot for another program (Python, C++) and prints its id and secret.",
      kSessionFlags, 2, run_session},
     {"view", "draw a world live in the browser, or play a replay file with a timeline",
      "[--listen HOST:PORT] [--world ID]\n"

@@ -1,5 +1,6 @@
-// fulcrum session: open a world as a multiplayer session, join it as a bot that pushes its own
-// bodies and checks every confirmed hash on its own copy of the world (lockstep), or watch it.
+// fulcrum session: open (or create) a world as a multiplayer session, join it as a player for
+// another program to play, join it as a bot that pushes its own bodies and checks every
+// confirmed hash on its own copy of the world (lockstep), or watch it.
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
@@ -145,23 +146,62 @@ int open_session(const Invocation& inv, client::Client* c, uint64_t world) {
   return kExitOk;
 }
 
+// The JoinSessionRequest of `join` and `bot`: --name (default `name`) and --bodies. False after
+// a usage error, whose exit code is in *exit_code.
+bool join_request(const Invocation& inv, uint64_t world, const char* name,
+                  v1::JoinSessionRequest* join, int* exit_code) {
+  join->set_world_id(world);
+  join->set_name(inv.args.value("name").value_or(name));
+  if (auto b = inv.args.value("bodies")) {
+    std::string error;
+    std::optional<std::vector<BodyId>> ids = parse_body_list(*b, &error);
+    if (!ids) {
+      *exit_code = inv.usage_error("--bodies: " + error);
+      return false;
+    }
+    for (BodyId id : *ids) {
+      v1::Handle* h = join->add_bodies();
+      h->set_index(id.index);
+      h->set_generation(id.generation);
+    }
+  }
+  return true;
+}
+
+void print_handles(std::ostream& out, const char* what,
+                   const google::protobuf::RepeatedPtrField<v1::Handle>& handles) {
+  out << what << ":";
+  for (int i = 0; i < handles.size(); ++i) {
+    out << (i == 0 ? " " : ",") << handles[i].index() << ":" << handles[i].generation();
+  }
+  out << "\n";
+}
+
+// A player for another program to play (the Python or C++ client, with the id and secret
+// printed here): joins, prints what it owns, and leaves the slot taken. Until a program
+// watches the session as this player, its inputs are missing and the session's rule stands in.
+int join(const Invocation& inv, client::Client* c, uint64_t world) {
+  v1::JoinSessionRequest request;
+  int exit_code = kExitOk;
+  if (!join_request(inv, world, "player", &request, &exit_code)) return exit_code;
+  Result<v1::JoinSessionReply> me = c->join_session(request);
+  if (!me.ok()) return inv.fail(me.status().message());
+  inv.out << "player " << me->player_id() << " joined world " << world << " at tick " << me->tick()
+          << "; first input for tick " << me->first_input_tick() << "\n"
+          << "secret: " << me->player_secret() << "\n";
+  print_handles(inv.out, "bodies", me->bodies());
+  print_handles(inv.out, "joints", me->joints());
+  return kExitOk;
+}
+
 // A player that pushes its own bodies with seeded random impulses, one input per tick sent
 // input_delay ticks ahead of each confirmed tick, and checks every hash on its own copy.
 int bot(const Invocation& inv, client::Client* c, uint64_t world, int64_t ticks) {
   std::string error;
   v1::JoinSessionRequest join;
-  join.set_world_id(world);
+  int exit_code = kExitOk;
+  if (!join_request(inv, world, "bot", &join, &exit_code)) return exit_code;
   join.set_fingerprint(kDeterminismFingerprint);
-  join.set_name(inv.args.value("name").value_or("bot"));
-  if (auto b = inv.args.value("bodies")) {
-    std::optional<std::vector<BodyId>> ids = parse_body_list(*b, &error);
-    if (!ids) return inv.usage_error("--bodies: " + error);
-    for (BodyId id : *ids) {
-      v1::Handle* h = join.add_bodies();
-      h->set_index(id.index);
-      h->set_generation(id.generation);
-    }
-  }
   uint64_t seed = 1;
   if (auto s = inv.args.value("seed")) {
     auto n = parse_int(*s, 0, int64_t{1} << 62, &error);
@@ -236,8 +276,11 @@ int bot(const Invocation& inv, client::Client* c, uint64_t world, int64_t ticks)
 }  // namespace
 
 int run_session(const Invocation& inv) {
-  if (inv.args.positional().empty()) return inv.usage_error("missing open, bot or watch");
-  const std::string action = inv.args.positional()[0];
+  if (inv.args.positional().empty()) {
+    return inv.usage_error("missing open (or create), join, bot or watch");
+  }
+  std::string action = inv.args.positional()[0];
+  if (action == "create") action = "open";
   int exit_code = kExitOk;
   std::optional<uint64_t> world = world_arg(inv, 1, &exit_code);
   if (!world) return exit_code;
@@ -248,12 +291,14 @@ int run_session(const Invocation& inv) {
     if (!n) return inv.usage_error("--ticks: " + error);
     ticks = *n;
   }
-  if (action != "open" && action != "bot" && action != "watch") {
-    return inv.usage_error("expected open, bot or watch, got '" + action + "'");
+  if (action != "open" && action != "join" && action != "bot" && action != "watch") {
+    return inv.usage_error("expected open (or create), join, bot or watch, got '" +
+                           inv.args.positional()[0] + "'");
   }
   auto c = connect_from_args(inv, &exit_code);
   if (!c) return exit_code;
   if (action == "open") return open_session(inv, c.get(), *world);
+  if (action == "join") return join(inv, c.get(), *world);
   if (action == "bot") return bot(inv, c.get(), *world, ticks);
   Follow f;
   int rc = follow(inv, c.get(), *world, ticks, nullptr, &f, 60);

@@ -157,6 +157,21 @@ if "$F" session bot 3 --bodies 210 --server "$ADDR" 2>"$WORK/err.txt"; then
 fi
 grep -q "the session has its 2 players" "$WORK/err.txt" || fail "third: $(cat "$WORK/err.txt")"
 
+# `session create` is `open`; `join` takes a player slot for another program and prints its id,
+# secret and what it owns; a body another player owns is refused with the field named.
+"$F" create --server "$ADDR" --scene "$SCENES/pyramid.json" >/dev/null
+out="$("$F" session create 4 --players 2 --server "$ADDR")"
+[[ "$out" == "world 4: a session from tick 0, at most 2 players"* ]] || fail "create: $out"
+out="$("$F" session join 4 --bodies 210 --name ui --server "$ADDR")" || fail "join: $out"
+[ "$(sed -n 1p <<<"$out")" = "player 1 joined world 4 at tick 0; first input for tick 0" ] &&
+  grep -qE "^secret: [0-9a-f]{64}$" <<<"$out" && grep -qx "bodies: 210:1" <<<"$out" &&
+  grep -qx "joints:" <<<"$out" || fail "join: $out"
+if "$F" session join 4 --bodies 210 --server "$ADDR" 2>"$WORK/err.txt"; then
+  fail "a second player took player 1's body"
+fi
+grep -q "bodies\[0\]: body {210, 1} is player 1's" "$WORK/err.txt" ||
+  fail "join taken: $(cat "$WORK/err.txt")"
+
 # SIGTERM with a watcher attached: the stream ends, the server exits 0.
 "$F" watch 1 --server "$ADDR" >"$WORK/watch.out" 2>"$WORK/watch.err" &
 WATCH=$!
