@@ -621,21 +621,22 @@ void Session::step_complete_ticks_locked() {
 
 Status Session::watch_session(std::shared_ptr<SessionWatcher> watcher, uint32_t player_id,
                               const std::string& secret) {
-  Hold hold(this);
-  if (!game_) return not_a_session(id_);
-  if (player_id != 0 || !secret.empty()) {
-    FULCRUM_RETURN_IF_ERROR(game_->check_player(player_id, secret));
-    game_->presence(player_id, +1);
+  std::optional<Status> closed;  // close_streams ran while this call was on its way
+  {
+    Hold hold(this);
+    if (!game_) return not_a_session(id_);
+    if (player_id != 0 || !secret.empty()) {
+      FULCRUM_RETURN_IF_ERROR(game_->check_player(player_id, secret));
+      game_->presence(player_id, +1);
+    }
+    watcher->offer(game_->start_event(world_));
+    std::lock_guard<std::mutex> wl(session_watchers_mu_);
+    closed = session_watchers_closed_;
+    if (!closed) session_watchers_.push_back(watcher);
   }
-  watcher->offer(game_->start_event(world_));
-  std::unique_lock<std::mutex> wl(session_watchers_mu_);
-  if (session_watchers_closed_) {  // close_streams ran while this call was on its way
-    const Status closed = *session_watchers_closed_;
-    wl.unlock();
-    watcher->close(closed);
-    return {};
-  }
-  session_watchers_.push_back(std::move(watcher));
+  // Outside the world's lock, as close_streams does: the stream's end leaves the player
+  // (unwatch_session), which takes that lock.
+  if (closed) watcher->close(*closed);
   return {};
 }
 
