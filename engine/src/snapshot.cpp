@@ -82,6 +82,14 @@ Status check_number(const std::string& field, const Vec2& v) {
   if (!is_finite(v)) return corrupt(field + " is not finite");
   return {};
 }
+// Finite and within kMaxInputMagnitude, as every definition and edit that sets the value is
+// (validation.h): a snapshot may hold only what the engine's own calls could have made.
+template <typename Value>
+Status check_bounded(const std::string& field, const Value& x) {
+  Status st = check_finite(field, x);
+  if (!st.ok()) return corrupt(st.message());
+  return {};
+}
 // Parameters that may be infinite (break limits, rope lengths) but never NaN.
 Status check_not_nan(const std::string& field, double x) {
   if (std::isnan(x)) return corrupt(field + " is NaN");
@@ -251,7 +259,7 @@ Status check_joint(const WorldSnapshot& s, size_t ji) {
     return corrupt(at("joint", ji, "curve_type") + " is unknown");
   }
   for (const Vec2& p : j.curve_points) {
-    FULCRUM_RETURN_IF_ERROR(check_number(at("joint", ji, "curve_points"), p));
+    FULCRUM_RETURN_IF_ERROR(check_bounded(at("joint", ji, "curve_points"), p));
   }
   auto lists = [&](int bi) {
     if (!in_range(bi, s.bodies.size()) || !s.bodies[bi].alive) return false;
@@ -264,9 +272,23 @@ Status check_joint(const WorldSnapshot& s, size_t ji) {
     return corrupt(at("joint", ji, "body_a/body_b") +
                    " are not two live bodies that list the joint");
   }
-  for (const Vec2& v : {j.local_a, j.local_b, j.local_axis, j.target, j.linear_impulse}) {
-    FULCRUM_RETURN_IF_ERROR(check_number(at("joint", ji, "vector parameter"), v));
+  // Bounded as the joint definitions and edits bound them: an anchor of 4e143 m (a fuzz
+  // finding) made the solver's lever-arm products overflow to infinity within two ticks.
+  const std::pair<const char*, Vec2> vectors[] = {{"local_a", j.local_a},
+                                                  {"local_b", j.local_b},
+                                                  {"local_axis", j.local_axis},
+                                                  {"target", j.target}};
+  for (const auto& [name, v] : vectors) {
+    FULCRUM_RETURN_IF_ERROR(check_bounded(at("joint", ji, name), v));
   }
+  const std::pair<const char*, double> scalars[] = {{"reference_angle", j.reference_angle},
+                                                    {"target_angle", j.target_angle},
+                                                    {"motor_speed", j.motor_speed},
+                                                    {"target_translation", j.target_translation}};
+  for (const auto& [name, x] : scalars) {
+    FULCRUM_RETURN_IF_ERROR(check_bounded(at("joint", ji, name), x));
+  }
+  FULCRUM_RETURN_IF_ERROR(check_number(at("joint", ji, "linear_impulse"), j.linear_impulse));
   for (double x : {j.length,
                    j.min_length,
                    j.max_length,

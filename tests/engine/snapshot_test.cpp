@@ -188,6 +188,12 @@ TEST(Snapshot, CorruptSnapshotsAreRefusedAndChangeNothing) {
       {"settings", [](WorldSnapshot& s) { s.settings.dt = -1.0; }},
       {"awake_bodies", [](WorldSnapshot& s) { s.awake_bodies.push_back(-4); }},
       {"type", [](WorldSnapshot& s) { s.bodies[1].type = static_cast<BodyType>(9); }},
+      // Finite but past what any joint definition allows: the snapshot fuzz target's finding
+      // (tests/fuzz/findings/snapshot/), whose world went non-finite two ticks after restore.
+      {"joint[3].local_b: each coordinate must be at most 1e12 in magnitude",
+       [](WorldSnapshot& s) { s.joints[3].local_b.y() = 4.0582731154107935e+143; }},
+      {"joint[0].reference_angle: must be at most 1e12",
+       [](WorldSnapshot& s) { s.joints[0].reference_angle = -1e13; }},
   };
   for (const Case& c : cases) {
     WorldSnapshot bad = good;
