@@ -274,20 +274,16 @@ Status check_joint(const WorldSnapshot& s, size_t ji) {
   }
   // Bounded as the joint definitions and edits bound them: an anchor of 4e143 m (a fuzz
   // finding) made the solver's lever-arm products overflow to infinity within two ticks.
-  const std::pair<const char*, Vec2> vectors[] = {{"local_a", j.local_a},
-                                                  {"local_b", j.local_b},
-                                                  {"local_axis", j.local_axis},
-                                                  {"target", j.target}};
-  for (const auto& [name, v] : vectors) {
-    FULCRUM_RETURN_IF_ERROR(check_bounded(at("joint", ji, name), v));
-  }
-  const std::pair<const char*, double> scalars[] = {{"reference_angle", j.reference_angle},
-                                                    {"target_angle", j.target_angle},
-                                                    {"motor_speed", j.motor_speed},
-                                                    {"target_translation", j.target_translation}};
-  for (const auto& [name, x] : scalars) {
-    FULCRUM_RETURN_IF_ERROR(check_bounded(at("joint", ji, name), x));
-  }
+  auto field = [&](const char* name) { return at("joint", ji, name); };
+  const Status bounded[] = {check_bounded(field("local_a"), j.local_a),
+                            check_bounded(field("local_b"), j.local_b),
+                            check_bounded(field("local_axis"), j.local_axis),
+                            check_bounded(field("target"), j.target),
+                            check_bounded(field("reference_angle"), j.reference_angle),
+                            check_bounded(field("target_angle"), j.target_angle),
+                            check_bounded(field("motor_speed"), j.motor_speed),
+                            check_bounded(field("target_translation"), j.target_translation)};
+  for (const Status& st : bounded) FULCRUM_RETURN_IF_ERROR(st);
   FULCRUM_RETURN_IF_ERROR(check_number(at("joint", ji, "linear_impulse"), j.linear_impulse));
   for (double x : {j.length,
                    j.min_length,
