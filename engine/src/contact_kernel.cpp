@@ -5,6 +5,7 @@
 #include <mutex>
 
 #include "contact_kernel.h"
+#include "joint_kernel.h"
 #include "worker_pool.h"
 
 namespace fulcrum {
@@ -30,6 +31,21 @@ void warm_x2(ContactBlock* blocks, int first, int end, SolverBody* bodies) {
 }
 void separation_x2(ContactBlock* blocks, int first, int end, const SolverBody* bodies) {
   separation_blocks<F64x2>(blocks, first, end, bodies);
+}
+
+void solve_points_scalar(PointBlock* blocks, int first, int end, SolverBody* bodies,
+                         const PointRule& rule) {
+  solve_point_blocks<double>(blocks, first, end, bodies, rule);
+}
+void warm_points_scalar(PointBlock* blocks, int first, int end, SolverBody* bodies) {
+  warm_point_blocks<double>(blocks, first, end, bodies);
+}
+void solve_points_x2(PointBlock* blocks, int first, int end, SolverBody* bodies,
+                     const PointRule& rule) {
+  solve_point_blocks<F64x2>(blocks, first, end, bodies, rule);
+}
+void warm_points_x2(PointBlock* blocks, int first, int end, SolverBody* bodies) {
+  warm_point_blocks<F64x2>(blocks, first, end, bodies);
 }
 
 }  // namespace lanes

@@ -145,6 +145,8 @@ FULCRUM_LANE_INLINE const double* motion_row(const SolverBody& b) {
 }
 
 // The velocities of a group of lanes' bodies, loaded from and stored to the solver bodies.
+// Block is a ContactBlock or a PointBlock (joint_kernel.h): anything with ia, ib, write_a and
+// write_b per lane.
 template <class V>
 struct LaneBodies {
   using L = Lane<V>;
@@ -152,7 +154,8 @@ struct LaneBodies {
   V vax, vay, wa, ima_row;
   V vbx, vby, wb, imb_row;
 
-  FULCRUM_LANE_INLINE LaneBodies(const ContactBlock& k, int l0, const SolverBody* bodies) {
+  template <class Block>
+  FULCRUM_LANE_INLINE LaneBodies(const Block& k, int l0, const SolverBody* bodies) {
     const double* ra[kCount];
     const double* rb[kCount];
     for (int l = 0; l < kCount; ++l) {
@@ -168,7 +171,8 @@ struct LaneBodies {
 
   // Only dynamic bodies are written: lanes of one colour share no dynamic body. The row's
   // fourth element (the inverse mass) is written back as it was read.
-  FULCRUM_LANE_INLINE void store(const ContactBlock& k, int l0, SolverBody* bodies) const {
+  template <class Block>
+  FULCRUM_LANE_INLINE void store(const Block& k, int l0, SolverBody* bodies) const {
     double* ra[kCount];
     double* rb[kCount];
     alignas(32) double sink[2 * kCount][4];

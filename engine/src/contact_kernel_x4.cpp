@@ -3,6 +3,7 @@
 // splits each vector operation into narrower ones with the same per-lane results.
 #define FULCRUM_CONTACT_LANES4 1
 #include "contact_kernel.h"
+#include "joint_kernel.h"
 
 namespace fulcrum::lanes {
 
@@ -17,6 +18,15 @@ void warm_x4(ContactBlock* blocks, int first, int end, SolverBody* bodies) {
 
 void separation_x4(ContactBlock* blocks, int first, int end, const SolverBody* bodies) {
   separation_blocks<F64x4>(blocks, first, end, bodies);
+}
+
+void solve_points_x4(PointBlock* blocks, int first, int end, SolverBody* bodies,
+                     const PointRule& rule) {
+  solve_point_blocks<F64x4>(blocks, first, end, bodies, rule);
+}
+
+void warm_points_x4(PointBlock* blocks, int first, int end, SolverBody* bodies) {
+  warm_point_blocks<F64x4>(blocks, first, end, bodies);
 }
 
 }  // namespace fulcrum::lanes

@@ -680,11 +680,14 @@ void WorldImpl::solve_group(const std::vector<int>& awake) {
   // Soft contacts are solved colour by colour in lanes (contact_lanes.h); rigid contacts (the
   // classic settings, with the block solver and split impulses) one by one in id order.
   const bool coloured = !rule.rigid;
+  prepare_joints(awake, h);
   // Threads only where a colour has chunks enough to share (see kBlocksPerChunk).
-  WorkerPool* workers = pool != nullptr && coloured && s.contacts.size() >= 256 ? pool : nullptr;
+  WorkerPool* workers =
+      pool != nullptr && ((coloured && s.contacts.size() >= 256) || coloured_points.points >= 256)
+          ? pool
+          : nullptr;
   if (workers != nullptr) workers->begin_busy();
   prepare(*this, s, h, workers);
-  prepare_joints(awake, h);
   for_chunks(workers, awake.size(), 256,
              [&](size_t lo, size_t hi) { prepare_drives(*this, awake, s, h, lo, hi); });
   LaneRule lane_solve;
@@ -715,7 +718,7 @@ void WorldImpl::solve_group(const std::vector<int>& awake) {
     });
     // Later substeps always start from the impulses of the one before.
     if (set.warm_starting || sub > 0) {
-      warm_start_joints();
+      warm_start_joints(workers);
       if (coloured) {
         warm_start_coloured(coloured_contacts, s.bodies.data(), workers);
       } else {
@@ -723,7 +726,7 @@ void WorldImpl::solve_group(const std::vector<int>& awake) {
       }
     }
     for (int it = 0; it < set.velocity_iterations; ++it) {
-      solve_joints(true);
+      solve_joints(true, workers);
       if (contact_pass(rule, lane_solve) < set.early_exit_tolerance) break;
     }
     if (rule.rigid && rule.split) {
@@ -738,7 +741,7 @@ void WorldImpl::solve_group(const std::vector<int>& awake) {
       update_separations(coloured_contacts, s.bodies.data(), workers);
     }
     for (int it = 0; it < set.relax_iterations; ++it) {
-      solve_joints(false);
+      solve_joints(false, workers);
       lane_relax.refresh_separation = it == 0;
       if (contact_pass(relax, lane_relax) < set.early_exit_tolerance) break;
     }

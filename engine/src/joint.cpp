@@ -237,17 +237,17 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     }
   }
   s.joint_rows.resize(n_rows);
+  coloured_points.soft = soft;
+  colour_points(s.joint_rows, s.bodies, &coloured_points);
 }
 
-void WorldImpl::warm_start_joints() {
+void WorldImpl::warm_start_joints(WorkerPool* workers) {
   SolverScratch& s = solver_scratch;
-  for (const JointRow& r : s.joint_rows) {
+  warm_start_points(coloured_points, s.bodies.data(), workers);
+  for (int k : coloured_points.other_rows) {
+    const JointRow& r = s.joint_rows[k];
     SolverBody& a = s.bodies[r.ia];
     SolverBody& b = s.bodies[r.ib];
-    if (r.plain_point) {
-      warm_start_point_row(r, a, b);
-      continue;
-    }
     Joint& j = joints[r.joint];
     switch (j.type) {
       case JointType::kDistance:
@@ -280,7 +280,7 @@ void WorldImpl::warm_start_joints() {
   }
 }
 
-void WorldImpl::solve_joints(bool use_bias) {
+void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers) {
   SolverScratch& s = solver_scratch;
   JointStep st;
   st.h = settings.dt / settings.substeps;
@@ -289,16 +289,18 @@ void WorldImpl::solve_joints(bool use_bias) {
   st.rigid = settings.joint_hertz == 0.0;
   st.baumgarte = settings.baumgarte;
   st.max_speed = settings.max_correction_speed;
-  for (JointRow& r : s.joint_rows) {
+  // The same feedback solve_revolute_point gives its rows.
+  PointRule rule;
+  rule.use_bias = use_bias;
+  rule.rate = st.rigid ? st.baumgarte * st.inv_h : coloured_points.soft.bias_rate;
+  rule.mass_scale = st.rigid ? 1.0 : coloured_points.soft.mass_scale;
+  rule.impulse_scale = st.rigid ? 0.0 : coloured_points.soft.impulse_scale;
+  rule.max_speed = st.max_speed;
+  solve_points(coloured_points, s.bodies.data(), rule, workers);
+  for (int k : coloured_points.other_rows) {
+    const JointRow& r = s.joint_rows[k];
     SolverBody& a = s.bodies[r.ia];
     SolverBody& b = s.bodies[r.ib];
-    if (r.plain_point) {
-      double impulse[2] = {r.lix, r.liy};
-      solve_revolute_point(r, st, impulse, a, b);
-      r.lix = impulse[0];
-      r.liy = impulse[1];
-      continue;
-    }
     Joint& j = joints[r.joint];
     switch (j.type) {
       case JointType::kDistance:
@@ -332,6 +334,7 @@ void WorldImpl::solve_joints(bool use_bias) {
 }
 
 void WorldImpl::store_joint_impulses() {
+  unpack_points(coloured_points, &solver_scratch.joint_rows);
   for (const JointRow& r : solver_scratch.joint_rows) {
     if (r.plain_point) joints[r.joint].linear_impulse = Vec2(r.lix, r.liy);
   }

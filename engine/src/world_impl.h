@@ -15,6 +15,7 @@
 #include "dynamic_tree.h"
 #include "fulcrum/state.h"
 #include "fulcrum/world.h"
+#include "joint_lanes.h"
 #include "joint_solver.h"
 #include "manifold.h"
 #include "pair_set.h"
@@ -114,9 +115,12 @@ class WorldImpl {
   void destroy_joint_at(int joint);
   // Whether a joint between the two bodies forbids their contact.
   bool joint_blocks_contact(int body_a, int body_b) const;
+  // Prepares the awake joints' rows and colours their plain points (joint_lanes.h).
   void prepare_joints(const std::vector<int>& awake, double h);
-  void warm_start_joints();
-  void solve_joints(bool use_bias);
+  // The plain points first, in lanes (on `workers`' threads when not null), then every other
+  // row in row order.
+  void warm_start_joints(WorkerPool* workers);
+  void solve_joints(bool use_bias, WorkerPool* workers);
   // Writes the tick's point impulses of plain point rows back to their joints.
   void store_joint_impulses();
   // Spring force elements: one substep's forces into the solver bodies' velocities.
@@ -220,6 +224,7 @@ class WorldImpl {
     int base_substeps = 0;
   } budget;
   ColouredContacts coloured_contacts;
+  ColouredPoints coloured_points;
   // The threads the step may use (World::set_threads); null: the caller's thread alone. Owned
   // by the World, so that restoring a snapshot keeps it.
   WorkerPool* pool = nullptr;

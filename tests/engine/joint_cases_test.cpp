@@ -192,15 +192,16 @@ TEST(JointCases, Case19VeryHeavyChain) {
   EXPECT_EQ(w.metrics().max_substeps, 16);
 }
 
-// Case 19 with budgets turned off (max_substeps = substeps): the chain pulls apart (8.36 m at
-// tick 600, still opening), though it gains no energy. Pinned to within 10 % so that a change
+// Case 19 with budgets turned off (max_substeps = substeps): the chain pulls apart (7.25 m at
+// tick 600, still opening; 8.36 m when the pins were solved in id order), though it gains no
+// energy. Pinned to within 10 % so that a change
 // of the solver shows either way: this is what the budget buys.
 TEST(JointCases, Case19VeryHeavyChainWithoutBudgetsPullsApart) {
   SceneDef s = scene("very_heavy_chain");
   s.settings.max_substeps = s.settings.substeps;
   World w = testing::build(s);
   ChainRun r = run_chain(w);
-  EXPECT_NEAR(r.worst, 8.36, 0.84);
+  EXPECT_NEAR(r.worst, 7.25, 0.73);
   EXPECT_LE(r.energy_gain, 1e-6);
 }
 

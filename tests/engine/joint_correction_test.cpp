@@ -126,10 +126,12 @@ TEST(JointCorrection, TheCapIsTheWorldSetting) {
 // static anchor, without gravity. The row stays straight (every impulse acts along x through
 // the centres), so nothing turns, and with converged rows link k would move at most k times
 // the cap. Sequential impulses with two passes do not converge on ten links: a row meets its
-// target when it is solved, then its neighbours pull on the shared link in the same pass.
-// Measured: the first link peaks at 1.19 x the cap, and the 10 joints together at 13.7 m/s on
-// the last link (before the cap: 200 m/s, with gravity), so each link is held to 1.25 x its k
-// caps and the last to its 10 caps (15 m/s) exactly. All joints close below 1 mm within 90 ticks:
+// target when it is solved, then its neighbours pull on the shared link in the same pass. The
+// pins are solved colour by colour (joint_lanes.h), the even joints before the odd ones, so
+// the links between two joints of the first colour are pulled twice. Measured: the first link
+// peaks at 1.39 x the cap, the third at 1.31 x its 3 caps, the last link at 0.97 x its 10 (before
+// the cap: 200 m/s, with gravity), so each link is held to 1.5 x its k caps and the last to
+// its 10 caps (15 m/s) exactly. All joints close below 1 mm within 90 ticks:
 // the last link has 10 m to travel at up to 15 m/s, the first joint 1 m at 1.5 m/s
 // (40 ticks), while each joint's closing also drags the links beyond it.
 TEST(JointCorrection, ChainCreatedApartClosesAtTheCapPerJoint) {
@@ -155,7 +157,7 @@ TEST(JointCorrection, ChainCreatedApartClosesAtTheCapPerJoint) {
     w.step();
     for (size_t k = 0; k < links.size(); ++k) {
       BodyState s = *w.body_state(links[k]);
-      EXPECT_LE(length(s.linear_velocity), 1.25 * (k + 1) * cap) << "link " << k << ", tick " << t;
+      EXPECT_LE(length(s.linear_velocity), 1.5 * (k + 1) * cap) << "link " << k << ", tick " << t;
       if (k + 1 == links.size()) {
         EXPECT_LE(length(s.linear_velocity), 10 * cap) << "tick " << t;
       }

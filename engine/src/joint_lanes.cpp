@@ -1,0 +1,177 @@
+// Colouring and packing of the plain revolute points, and their passes on the chosen path.
+#include "joint_lanes.h"
+
+#include <algorithm>
+
+#include "fulcrum/simd.h"
+#include "joint_solver.h"
+#include "worker_pool.h"
+
+namespace fulcrum {
+
+namespace {
+
+// A body the point rows change: the static body (slot 0), kinematic bodies and bodies of
+// infinite mass and inertia are only read.
+bool movable(const SolverBody& b) {
+  return b.inv_mass > 0.0 || b.inv_inertia > 0.0;
+}
+
+void clear_lane(PointBlock* b, int l) {
+  b->ia[l] = b->ib[l] = 0;
+  b->write_a[l] = b->write_b[l] = 0;
+  b->inv_inertia_a[l] = b->inv_inertia_b[l] = 0.0;
+  b->rax[l] = b->ray[l] = b->rbx[l] = b->rby[l] = 0.0;
+  b->dcx[l] = b->dcy[l] = 0.0;
+  b->ix[l] = b->iy[l] = 0.0;
+}
+
+void write_lane(const JointRow& r, const std::vector<SolverBody>& bodies, PointBlock* b, int l) {
+  const SolverBody& a = bodies[r.ia];
+  const SolverBody& bb = bodies[r.ib];
+  b->ia[l] = r.ia;
+  b->ib[l] = r.ib;
+  b->write_a[l] = movable(a);
+  b->write_b[l] = movable(bb);
+  b->inv_inertia_a[l] = a.inv_inertia;
+  b->inv_inertia_b[l] = bb.inv_inertia;
+  b->rax[l] = r.rax;
+  b->ray[l] = r.ray;
+  b->rbx[l] = r.rbx;
+  b->rby[l] = r.rby;
+  b->dcx[l] = r.dcx;
+  b->dcy[l] = r.dcy;
+  b->ix[l] = r.lix;
+  b->iy[l] = r.liy;
+}
+
+struct PathFns {
+  lanes::PointSolveFn solve;
+  lanes::PointWarmFn warm;
+};
+
+PathFns path_fns() {
+  switch (active_simd_path()) {
+    case SimdPath::kLanes4:
+      return {lanes::solve_points_x4, lanes::warm_points_x4};
+    case SimdPath::kLanes2:
+      return {lanes::solve_points_x2, lanes::warm_points_x2};
+    default:
+      return {lanes::solve_points_scalar, lanes::warm_points_scalar};
+  }
+}
+
+// Each colour's blocks in chunks of kBlocksPerChunk (shared among the pool's threads when there
+// are two or more), then the overflow one lane at a time in row order.
+template <class ColourFn, class OverflowFn>
+void each_colour(ColouredPoints& cp, WorkerPool* pool, ColourFn colour_fn, OverflowFn overflow_fn) {
+  for (int c = 0; c < cp.colours; ++c) {
+    const int first = cp.colour_start[c], end = cp.colour_start[c + 1];
+    const int chunks = (end - first + kBlocksPerChunk - 1) / kBlocksPerChunk;
+    if (pool == nullptr || chunks < 2) {
+      colour_fn(first, end);
+      continue;
+    }
+    auto chunk = [&](int i) {
+      const int b = first + i * kBlocksPerChunk;
+      colour_fn(b, std::min(b + kBlocksPerChunk, end));
+    };
+    pool->run(chunks, chunk);
+  }
+  const int end = static_cast<int>(cp.blocks.size());
+  if (cp.colour_start[cp.colours] < end) overflow_fn(cp.colour_start[cp.colours], end);
+}
+
+}  // namespace
+
+void colour_points(const std::vector<JointRow>& rows, const std::vector<SolverBody>& bodies,
+                   ColouredPoints* out) {
+  const size_t n_rows = rows.size();
+  std::vector<uint32_t>& use = out->body_use;
+  use.assign(bodies.size(), 0);
+  std::vector<int>& lane_of_row = out->lane_of_row;
+  lane_of_row.assign(n_rows, -1);
+  out->other_rows.clear();
+  int count[kMaxColours + 1] = {};
+  constexpr uint32_t kAll = kMaxColours == 32 ? ~0u : (1u << kMaxColours) - 1u;
+  for (size_t k = 0; k < n_rows; ++k) {
+    const JointRow& r = rows[k];
+    if (!r.plain_point) {
+      out->other_rows.push_back(static_cast<int>(k));
+      continue;
+    }
+    const bool mov_a = movable(bodies[r.ia]);
+    const bool mov_b = movable(bodies[r.ib]);
+    const uint32_t used = (mov_a ? use[r.ia] : 0u) | (mov_b ? use[r.ib] : 0u);
+    const uint32_t free = ~used & kAll;
+    int colour = kMaxColours;
+    if (free != 0) {
+      colour = __builtin_ctz(free);
+      if (mov_a) use[r.ia] |= 1u << colour;
+      if (mov_b) use[r.ib] |= 1u << colour;
+    }
+    lane_of_row[k] = colour;
+    ++count[colour];
+  }
+  int colours = 0;
+  for (int c = 0; c < kMaxColours; ++c) {
+    if (count[c] > 0) colours = c + 1;
+  }
+  out->colours = colours;
+  out->colour_start.resize(colours + 1);
+  int blocks = 0;
+  int next_lane[kMaxColours + 1] = {};
+  for (int c = 0; c < colours; ++c) {
+    out->colour_start[c] = blocks;
+    next_lane[c] = blocks * kBlockLanes;
+    blocks += (count[c] + kBlockLanes - 1) / kBlockLanes;
+  }
+  out->colour_start[colours] = blocks;
+  next_lane[kMaxColours] = blocks * kBlockLanes;
+  blocks += (count[kMaxColours] + kBlockLanes - 1) / kBlockLanes;
+  out->blocks.resize(blocks);
+  out->points = 0;
+  for (size_t k = 0; k < n_rows; ++k) {
+    if (lane_of_row[k] < 0) continue;
+    const int lane = next_lane[lane_of_row[k]]++;
+    lane_of_row[k] = lane;
+    write_lane(rows[k], bodies, &out->blocks[lane / kBlockLanes], lane % kBlockLanes);
+    ++out->points;
+  }
+  // Padding lanes: the static body on both sides, a singular K, no change.
+  auto clear_tail = [&](int lane_end) {
+    for (int lane = lane_end; lane % kBlockLanes != 0; ++lane) {
+      clear_lane(&out->blocks[lane / kBlockLanes], lane % kBlockLanes);
+    }
+  };
+  for (int c = 0; c < colours; ++c) clear_tail(next_lane[c]);
+  clear_tail(next_lane[kMaxColours]);
+}
+
+void unpack_points(const ColouredPoints& cp, std::vector<JointRow>* rows) {
+  for (size_t k = 0; k < rows->size(); ++k) {
+    const int lane = cp.lane_of_row[k];
+    if (lane < 0) continue;
+    const PointBlock& b = cp.blocks[lane / kBlockLanes];
+    (*rows)[k].lix = b.ix[lane % kBlockLanes];
+    (*rows)[k].liy = b.iy[lane % kBlockLanes];
+  }
+}
+
+void warm_start_points(ColouredPoints& cp, SolverBody* bodies, WorkerPool* pool) {
+  const PathFns fns = path_fns();
+  PointBlock* blocks = cp.blocks.data();
+  each_colour(
+      cp, pool, [&](int first, int end) { fns.warm(blocks, first, end, bodies); },
+      [&](int first, int end) { lanes::warm_points_scalar(blocks, first, end, bodies); });
+}
+
+void solve_points(ColouredPoints& cp, SolverBody* bodies, const PointRule& rule, WorkerPool* pool) {
+  const PathFns fns = path_fns();
+  PointBlock* blocks = cp.blocks.data();
+  each_colour(
+      cp, pool, [&](int first, int end) { fns.solve(blocks, first, end, bodies, rule); },
+      [&](int first, int end) { lanes::solve_points_scalar(blocks, first, end, bodies, rule); });
+}
+
+}  // namespace fulcrum

@@ -1,0 +1,215 @@
+// The plain revolute points in lanes (engine/src/joint_lanes.h): the colouring's invariants,
+// which make any order within a colour (lanes, threads) give the same bits; the overflow and
+// the rows left to the one-by-one solver; and the instruction paths' and thread counts'
+// equality on worlds with every kind of lane (static partners, padding, overflow, capped
+// feedback).
+#include <gtest/gtest.h>
+
+#include <set>
+#include <vector>
+
+#include "fulcrum/simd.h"
+#include "fulcrum/trig.h"
+#include "joint_lanes.h"
+#include "scene_fixture.h"
+#include "world_impl.h"
+
+namespace fulcrum::testing {
+namespace {
+
+SceneBody ball(const Vec2& at, double radius, BodyType type = BodyType::kDynamic) {
+  SceneBody b;
+  b.def.type = type;
+  b.def.position = at;
+  ShapeDef shape;
+  shape.geometry = Circle{Vec2::Zero(), radius};
+  b.shapes.push_back(shape);
+  return b;
+}
+
+void pin(SceneDef* s, int a, int b, const Vec2& world_anchor) {
+  RevoluteJointDef def;
+  def.local_anchor_a = world_anchor - s->bodies[a].def.position;
+  def.local_anchor_b = world_anchor - s->bodies[b].def.position;
+  s->joints.push_back(SceneJoint{a, b, def});
+}
+
+// n x n circles 1 m apart, each pinned to its right and lower neighbours at the midpoint
+// (HARD_CASES 9 in small); the top row's first and last circles are static.
+SceneDef grid(int n) {
+  SceneDef s;
+  for (int row = 0; row < n; ++row) {
+    for (int col = 0; col < n; ++col) {
+      const bool fixed = row == 0 && (col == 0 || col == n - 1);
+      s.bodies.push_back(
+          ball(Vec2(col, 20.0 - row), 0.4, fixed ? BodyType::kStatic : BodyType::kDynamic));
+    }
+  }
+  for (int row = 0; row < n; ++row) {
+    for (int col = 0; col < n; ++col) {
+      const int i = row * n + col;
+      if (col + 1 < n) pin(&s, i, i + 1, Vec2(col + 0.5, 20.0 - row));
+      if (row + 1 < n) pin(&s, i, i + n, Vec2(col, 19.5 - row));
+    }
+  }
+  return s;
+}
+
+// A wheel: a dynamic hub pinned to a static anchor, with `spokes` balls pinned to it around
+// its rim (more than kMaxColours: the hub is in every one), one of them by a revolute joint
+// with an angle limit (not a plain point). Without gravity, every joint created `apart` from
+// its place, so that the feedback runs at its cap. The hub is ten times as dense as the spokes:
+// at equal density 20 or more spokes of this wheel outweigh its inertia so far that the pins
+// swing apart, with or without lanes.
+SceneDef wheel(int spokes, double apart) {
+  SceneDef s;
+  s.settings.gravity = Vec2::Zero();
+  s.bodies.push_back(ball(Vec2::Zero(), 0.1, BodyType::kStatic));
+  s.bodies.push_back(ball(Vec2::Zero(), 1.0));
+  s.bodies.back().shapes[0].density = 10.0;
+  pin(&s, 0, 1, Vec2::Zero());
+  for (int k = 0; k < spokes; ++k) {
+    const double a = 2.0 * kPi * k / spokes;
+    const Vec2 dir(std::cos(a), std::sin(a));
+    s.bodies.push_back(ball((3.0 + apart) * dir, 0.2));
+    s.bodies.back().def.linear_velocity = Vec2(-dir.y(), dir.x());
+    RevoluteJointDef def;  // the hub's point 3 m out to the spoke's centre
+    def.local_anchor_a = 3.0 * dir;
+    s.joints.push_back(SceneJoint{1, static_cast<int>(s.bodies.size()) - 1, def});
+  }
+  auto& limited = std::get<RevoluteJointDef>(s.joints.back().def);
+  limited.enable_limit = true;
+  limited.lower_angle = -0.5;
+  limited.upper_angle = 0.5;
+  return s;
+}
+
+// Checks the last tick's colouring of `w`.
+void expect_valid_colouring(const World& w) {
+  const WorldImpl& impl = w.impl();
+  const ColouredPoints& cp = impl.coloured_points;
+  const SolverScratch& s = impl.solver_scratch;
+  ASSERT_EQ(cp.lane_of_row.size(), s.joint_rows.size());
+  ASSERT_EQ(static_cast<int>(cp.colour_start.size()), cp.colours + 1);
+  // Every plain point has its own lane holding its bodies; every other row is left to the
+  // one-by-one solver, in row order.
+  std::set<int> lanes_used;
+  std::vector<int> others;
+  for (size_t k = 0; k < s.joint_rows.size(); ++k) {
+    const int lane = cp.lane_of_row[k];
+    if (!s.joint_rows[k].plain_point) {
+      EXPECT_EQ(lane, -1);
+      others.push_back(static_cast<int>(k));
+      continue;
+    }
+    ASSERT_GE(lane, 0);
+    EXPECT_TRUE(lanes_used.insert(lane).second);
+    const PointBlock& b = cp.blocks[lane / kBlockLanes];
+    EXPECT_EQ(b.ia[lane % kBlockLanes], s.joint_rows[k].ia);
+    EXPECT_EQ(b.ib[lane % kBlockLanes], s.joint_rows[k].ib);
+  }
+  EXPECT_EQ(static_cast<int>(lanes_used.size()), cp.points);
+  EXPECT_EQ(cp.other_rows, others);
+  // Within a colour, every body the lanes write is written by one lane only; only movable
+  // bodies are written.
+  for (int c = 0; c < cp.colours; ++c) {
+    std::set<int> written;
+    for (int k = cp.colour_start[c]; k < cp.colour_start[c + 1]; ++k) {
+      const PointBlock& b = cp.blocks[k];
+      for (int l = 0; l < kBlockLanes; ++l) {
+        for (auto [slot, write] :
+             {std::pair{b.ia[l], b.write_a[l]}, std::pair{b.ib[l], b.write_b[l]}}) {
+          EXPECT_EQ(write != 0, s.bodies[slot].inv_mass > 0.0);
+          if (write) {
+            EXPECT_TRUE(written.insert(slot).second) << "colour " << c << " slot " << slot;
+          }
+        }
+      }
+    }
+  }
+}
+
+TEST(JointLanes, ColoursNeverShareAMovableBody) {
+  World w = build(grid(12));
+  for (int i = 0; i < 20; ++i) w.step();
+  const ColouredPoints& cp = w.impl().coloured_points;
+  // 264 pins; a circle holds at most 4, so a handful of colours and no overflow.
+  EXPECT_EQ(cp.points, 264);
+  EXPECT_LE(cp.colours, 6);
+  EXPECT_EQ(cp.colour_start[cp.colours], static_cast<int>(cp.blocks.size()));
+  EXPECT_TRUE(cp.other_rows.empty());
+  expect_valid_colouring(w);
+}
+
+TEST(JointLanes, AHubWithMorePinsThanColoursOverflowsAndLimitedJointsStayRows) {
+  World w = build(wheel(30, 0.0));
+  w.step();
+  const ColouredPoints& cp = w.impl().coloured_points;
+  // 31 joints on the hub: 30 plain points (the anchor's and 29 spokes'), 24 coloured, 6 in the
+  // overflow; the limited spoke is a row of its own.
+  EXPECT_EQ(cp.points, 30);
+  EXPECT_EQ(cp.colours, kMaxColours);
+  const int overflow_blocks = static_cast<int>(cp.blocks.size()) - cp.colour_start[cp.colours];
+  EXPECT_EQ(overflow_blocks, 1);
+  EXPECT_EQ(cp.other_rows.size(), 1u);
+  expect_valid_colouring(w);
+  // The wheel turns as one body: after 2 s every pin holds within a millimetre.
+  for (int i = 0; i < 120; ++i) w.step();
+  EXPECT_TRUE(all_finite(w));
+  EXPECT_LT(w.metrics().max_joint_error, 1e-3);
+}
+
+// Every path this CPU runs gives the scalar path's state hash at every tick.
+void expect_paths_agree(const SceneDef& scene, int ticks) {
+  std::vector<std::vector<uint64_t>> runs;
+  for (SimdPath path : supported_simd_paths()) {
+    ASSERT_TRUE(set_simd_path(path).ok());
+    World w = build(scene);
+    std::vector<uint64_t> hashes;
+    for (int i = 0; i < ticks; ++i) {
+      w.step();
+      hashes.push_back(w.state_hash());
+    }
+    runs.push_back(hashes);
+  }
+  ASSERT_TRUE(set_simd_path(SimdPath::kAuto).ok());
+  ASSERT_GE(runs.size(), 2u);
+  for (size_t p = 1; p < runs.size(); ++p) {
+    for (int i = 0; i < ticks; ++i) {
+      ASSERT_EQ(runs[p][i], runs[0][i])
+          << simd_path_name(supported_simd_paths()[p]) << " differs from scalar at tick " << i + 1;
+    }
+  }
+}
+
+TEST(JointLanes, EveryPathGivesTheScalarBits) {
+  expect_paths_agree(grid(9), 90);
+  // Pins 0.5 m out of place close at the cap: the capped lanes' own arithmetic.
+  SceneDef apart = wheel(30, 0.5);
+  World probe = build(apart);
+  probe.step();
+  EXPECT_GT(probe.metrics().max_joint_error, 0.3);
+  expect_paths_agree(apart, 60);
+}
+
+TEST(JointLanes, EveryThreadCountGivesOneThreadsBits) {
+  const SceneDef scene = grid(20);  // 760 pins: colours of several chunks each
+  std::vector<uint64_t> reference;
+  for (int threads = 1; threads <= 4; ++threads) {
+    World w = build(scene);
+    ASSERT_TRUE(w.set_threads(threads).ok());
+    for (int i = 0; i < 60; ++i) {
+      w.step();
+      if (threads == 1) {
+        reference.push_back(w.state_hash());
+      } else {
+        ASSERT_EQ(w.state_hash(), reference[i]) << threads << " threads, tick " << i + 1;
+      }
+    }
+    const ColouredPoints& cp = w.impl().coloured_points;
+    EXPECT_GE(cp.colour_start[1] - cp.colour_start[0], 2 * kBlocksPerChunk);
+  }
+}
+
+}  // namespace
+}  // namespace fulcrum::testing
