@@ -85,12 +85,13 @@ summary+=("fuzz smoke: $fuzz_targets targets, ${smoke} s each, two at a time: $(
 start=$SECONDS
 tsan="$FULCRUM_ROOT/build-tsan"
 fulcrum_configure_sanitized "$tsan" thread
-build "$tsan" session_test frames_test worker_pool_test contact_lanes_test random_worlds_test
+build "$tsan" session_test frames_test worker_pool_test contact_lanes_test joint_lanes_test \
+  random_worlds_test
 built=$((SECONDS - start))
 export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:log_path=$tsan/sanitizer-logs/tsan"
 entries=0
 run_ctest "$tsan" -R \
-  '^(SessionThreads|Frames|QuantizedFrames|SharedEncoding|WorkerPool|ContactLanes)\.|^Shards/RandomWorlds\.' ||
+  '^(SessionThreads|Frames|QuantizedFrames|SharedEncoding|WorkerPool|ContactLanes|JointLanes)\.|^Shards/RandomWorlds\.' ||
   failed=1
 summary+=("TSan: $entries ctest entries, build ${built} s, run $((SECONDS - start - built)) s")
 unset TSAN_OPTIONS

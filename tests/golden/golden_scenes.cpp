@@ -640,6 +640,77 @@ World build_recovery() {
   return require(build_world(s), "recovery", "build_world");
 }
 
+// --- 9. pins: plain revolute joints in lanes --------------------------------------------------
+// Pins with no limit, motor or spring are solved colour by colour in lanes (docs/performance.md):
+// a 20 x 20 grid of circles pinned to their right and lower neighbours (760 pins, colours
+// large enough that threads share them) hanging from its two top corners; a dense wheel whose
+// hub holds 30 spokes (more pins than colours: an overflow), one of them by a limited joint (a
+// row of its own); and a chain of 12 boxes created 0.4 m apart, whose feedback closes at the
+// cap.
+
+void pin(SceneDef* s, int a, int b, const Vec2& world_anchor) {
+  RevoluteJointDef def;
+  def.local_anchor_a = world_anchor - s->bodies[a].def.position;
+  def.local_anchor_b = world_anchor - s->bodies[b].def.position;
+  s->joints.push_back(SceneJoint{a, b, def});
+}
+
+World build_pins() {
+  SceneDef s;
+  scenes::add_ground(&s, 60.0, -30.0);
+  constexpr int n = 20;
+  const int first = static_cast<int>(s.bodies.size());
+  for (int row = 0; row < n; ++row) {
+    for (int col = 0; col < n; ++col) {
+      SceneBody b = ball_body(Vec2(-30.0 + col, 20.0 - row), 0.4, 1.0);
+      if (row == 0 && (col == 0 || col == n - 1)) b.def.type = BodyType::kStatic;
+      push(&s, std::move(b));
+    }
+  }
+  for (int row = 0; row < n; ++row) {
+    for (int col = 0; col < n; ++col) {
+      const int i = first + row * n + col;
+      if (col + 1 < n) pin(&s, i, i + 1, Vec2(-29.5 + col, 20.0 - row));
+      if (row + 1 < n) pin(&s, i, i + n, Vec2(-30.0 + col, 19.5 - row));
+    }
+  }
+  // The wheel, turning, on a static axle at (10, 10).
+  const Vec2 axle(10.0, 10.0);
+  SceneBody anchor = ball_body(axle, 0.1, 1.0);
+  anchor.def.type = BodyType::kStatic;
+  const int axle_body = push(&s, std::move(anchor));
+  const int hub = push(&s, ball_body(axle, 1.0, 10.0));
+  pin(&s, axle_body, hub, axle);
+  for (int k = 0; k < 30; ++k) {
+    const SinCos sc = det_sincos(2.0 * kPi * k / 30.0);
+    const Vec2 dir(sc.cos, sc.sin);
+    SceneBody spoke = ball_body(axle + 3.0 * dir, 0.2, 1.0);
+    spoke.def.linear_velocity = Vec2(-dir.y(), dir.x());
+    const int b = push(&s, std::move(spoke));
+    pin(&s, hub, b, axle + 3.0 * dir);
+    if (k == 29) {
+      auto& limited = std::get<RevoluteJointDef>(s.joints.back().def);
+      limited.enable_limit = true;
+      limited.lower_angle = -0.5;
+      limited.upper_angle = 0.5;
+    }
+  }
+  // The chain, from a static anchor at (20, 15), each box's pin 0.4 m short of its place.
+  SceneBody top = ball_body(Vec2(20.0, 15.0), 0.1, 1.0);
+  top.def.type = BodyType::kStatic;
+  int prev = push(&s, std::move(top));
+  for (int i = 0; i < 12; ++i) {
+    const int link =
+        push(&s, box_body(BodyType::kDynamic, Vec2(21.0 + 1.4 * i, 15.0), 0.5, 0.125, 1.0));
+    RevoluteJointDef def;
+    def.local_anchor_a = i == 0 ? Vec2::Zero() : Vec2(0.5, 0.0);
+    def.local_anchor_b = Vec2(-0.5, 0.0);
+    s.joints.push_back(SceneJoint{prev, link, def});
+    prev = link;
+  }
+  return require(build_world(s), "pins", "build_world");
+}
+
 }  // namespace
 
 const std::vector<GoldenScenario>& golden_scenarios() {
@@ -652,6 +723,7 @@ const std::vector<GoldenScenario>& golden_scenarios() {
       {"joints", 360, build_joints, edit_joints},
       {"lanes", 240, build_lanes, no_edits},
       {"recovery", 240, build_recovery, no_edits},
+      {"pins", 180, build_pins, no_edits},
   };
   return scenarios;
 }
