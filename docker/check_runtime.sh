@@ -29,7 +29,9 @@ owners=$(dpkg -S "${candidates[@]}" 2>/dev/null || true)
 for lib in "${libs[@]}"; do
   pkg=""
   for path in "$lib" "$(realpath "$lib")" "${lib#/usr}" "/usr${lib#/usr}"; do
-    pkg=$(echo "$owners" | awk -v p="$path" '$2 == p { sub(/:.*/, "", $1); print $1; exit }')
+    # A here-string, not a pipe: awk's early exit would give echo SIGPIPE, and with pipefail
+    # and set -e that ended the script silently about one run in ten.
+    pkg=$(awk -v p="$path" '$2 == p { sub(/:.*/, "", $1); print $1; exit }' <<<"$owners")
     [ -n "$pkg" ] && break
   done
   [ -n "$pkg" ] || fail "$lib (loaded by fulcrum-server or fulcrum) is in no Debian package"
