@@ -48,28 +48,33 @@ void WorldImpl::update_sleep(const std::vector<int>& awake) {
   // island can, and building them is wasted (a world in motion pays only the timers).
   if (!any_rested) return;
 
-  // Union over touching solid contacts between awake dynamic bodies. A body touching a moving
-  // kinematic body may not sleep.
+  // Union over touching solid contacts between awake dynamic bodies, in one pass over the
+  // contact pool (in memory order: far cheaper than walking every body's list, and the islands
+  // are the same whatever the order). A body touching a moving kinematic body may not sleep.
   std::vector<int>& parent = scratch_parent;
   parent.resize(n);
   for (int k = 0; k < n; ++k) parent[k] = k;
-  for (int k = 0; k < n; ++k) {
-    int bi = awake[k];
-    if (!bodies[bi].is_dynamic()) continue;
-    for (int e = bodies[bi].contact_list; e != kNullIndex;) {
-      const Contact& c = contacts[edge_contact(e)];
-      e = c.edges[edge_side(e)].next;
-      if (!c.touching || c.sensor) continue;
-      int other = c.body_a == bi ? c.body_b : c.body_a;
-      const Body& o = bodies[other];
-      if (o.type == BodyType::kKinematic) {
-        if (o.sleep_time == 0.0) island_min[k] = 0.0;
-        continue;
-      }
-      if (!o.is_dynamic() || !o.awake || other < bi) continue;
-      int ra = find_root(parent, k);
-      int rb = find_root(parent, slot[other] - 1);
+  // A body's position in `awake` if it is there and dynamic; -1 otherwise.
+  if (slot.size() < bodies.size()) slot.resize(bodies.size(), 0);
+  auto awake_dynamic = [&](int body) {
+    const int k = slot[body] - 1;
+    return k >= 0 && k < n && awake[k] == body && bodies[body].is_dynamic() ? k : -1;
+  };
+  auto moving_kinematic = [&](int body) {
+    return bodies[body].type == BodyType::kKinematic && bodies[body].sleep_time == 0.0;
+  };
+  for (const Contact& c : contacts) {
+    if (!c.alive || !c.touching || c.sensor) continue;
+    const int ka = awake_dynamic(c.body_a);
+    const int kb = awake_dynamic(c.body_b);
+    if (ka >= 0 && kb >= 0) {
+      int ra = find_root(parent, ka);
+      int rb = find_root(parent, kb);
       if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+    } else if (ka >= 0 && moving_kinematic(c.body_b)) {
+      island_min[ka] = 0.0;
+    } else if (kb >= 0 && moving_kinematic(c.body_a)) {
+      island_min[kb] = 0.0;
     }
   }
 
