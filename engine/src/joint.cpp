@@ -224,15 +224,17 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     } else if (j.type == JointType::kDistance) {
       prepare_distance_joint(j, r, a, b);
     } else if (j.type != JointType::kSpring) {
-      // Revolute, weld and motor: the angle row's mass and the joint angle at tick start.
-      r.angle = relative_angle(ba.xf.q, bb.xf.q, j.reference_angle);
-      prepare_revolute_joint(j, r, a, b);
+      // Revolute, weld and motor: the angle row's mass and the joint angle at tick start. A
+      // plain pin has no angle row: it needs neither (and skips the arctangent).
       r.plain_point = j.type == JointType::kRevolute && !j.enable_limit && !j.enable_motor &&
                       !j.enable_spring && j.spring_impulse == 0.0 && j.motor_impulse == 0.0 &&
                       j.lower_impulse == 0.0 && j.upper_impulse == 0.0;
       if (r.plain_point) {
         r.lix = j.linear_impulse.x();
         r.liy = j.linear_impulse.y();
+      } else {
+        r.angle = relative_angle(ba.xf.q, bb.xf.q, j.reference_angle);
+        prepare_revolute_joint(j, r, a, b);
       }
     }
   }
