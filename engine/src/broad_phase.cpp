@@ -1,6 +1,8 @@
-// Broad phase: shapes' fattened boxes in one dynamic tree. Shapes whose boxes moved are
-// buffered; once per step each buffered box is queried against the tree and new pairs become
-// contacts. Pairs are sorted before creation, so contact ids never depend on tree order.
+// Broad phase: shapes' fattened boxes in two dynamic trees, one for static bodies' shapes and
+// one for the others. Shapes whose boxes moved are buffered; once per step each buffered box is
+// queried against the moving tree, and a moving shape's against the static tree too (two static
+// shapes never collide), and new pairs become contacts. Pairs are sorted before creation, so
+// contact ids never depend on either tree's shape.
 #include <algorithm>
 #include <atomic>
 #include <limits>
@@ -14,8 +16,8 @@ void WorldImpl::create_proxy(int si) {
   Shape& s = shapes[si];
   const Body& b = bodies[s.body];
   AABB fat = compute_aabb(s.geometry, b.xf).fattened(settings.aabb_margin);
-  s.proxy =
-      tree.create_proxy(fat, static_cast<uint64_t>(si), s.filter.category_bits, s.filter.mask_bits);
+  s.proxy = tree_of(s).create_proxy(fat, static_cast<uint64_t>(si), s.filter.category_bits,
+                                    s.filter.mask_bits);
   if (!s.in_move_buffer) {
     s.in_move_buffer = true;
     move_buffer.push_back(si);
@@ -28,7 +30,7 @@ void WorldImpl::destroy_proxy(int si) {
     move_buffer.erase(std::find(move_buffer.begin(), move_buffer.end(), si));
     s.in_move_buffer = false;
   }
-  if (s.proxy != kNullIndex) tree.destroy_proxy(s.proxy);
+  if (s.proxy != kNullIndex) tree_of(s).destroy_proxy(s.proxy);
   s.proxy = kNullIndex;
 }
 
@@ -46,7 +48,7 @@ void WorldImpl::find_moves(int bi, F&& moved) const {
     AABB swept = compute_aabb(s.geometry, b.xf);
     swept.lower += travel.cwiseMin(Vec2::Zero());
     swept.upper += travel.cwiseMax(Vec2::Zero());
-    if (tree.fat_aabb(s.proxy).contains(swept)) continue;
+    if (tree_of(s).fat_aabb(s.proxy).contains(swept)) continue;
     moved(si, swept.fattened(settings.aabb_margin));
   }
 }
@@ -61,7 +63,7 @@ void WorldImpl::buffer_move(int si) {
 
 void WorldImpl::synchronize_shapes(int bi) {
   find_moves(bi, [&](int si, const AABB& fat) {
-    tree.move_proxy(shapes[si].proxy, fat);
+    tree_of(shapes[si]).move_proxy(shapes[si].proxy, fat);
     buffer_move(si);
   });
 }
@@ -95,7 +97,8 @@ void WorldImpl::synchronize_awake(const std::vector<int>& awake) {
 
 // When many leaves moved (a pile in motion), setting their boxes and rebuilding the tree once
 // costs less than re-inserting each. The tree's shape never reaches the results: pairs and
-// query hits are sorted.
+// query hits are sorted. Only awake bodies move here, and static bodies are never awake: the
+// moves are all in the moving tree.
 void WorldImpl::commit_moves() {
   const size_t threshold = std::max<size_t>(64, static_cast<size_t>(tree.proxy_count()) / 8);
   if (pending_moves.size() >= threshold) {
@@ -147,20 +150,27 @@ int64_t WorldImpl::update_pairs() {
   pairs.clear();
   auto query_shape = [&](int si, std::vector<std::pair<int, int>>* out) {
     const Shape& s = shapes[si];
-    const AABB& box = tree.fat_aabb(s.proxy);
+    const AABB& box = tree_of(s).fat_aabb(s.proxy);
     // Outside a positive group (whose members meet whatever their bits), only shapes whose
     // bits pass both ways can collide with this one: the tree skips subtrees of others.
     const bool grouped = s.filter.group_index > 0;
-    tree.query_filtered(box, grouped ? ~0ull : s.filter.category_bits,
-                        grouped ? ~0ull : s.filter.mask_bits, [&](int proxy) {
-                          int other = static_cast<int>(tree.user_data(proxy));
-                          if (other == si) return true;
-                          // A pair of two moved shapes is found from the lower index's side.
-                          if (shapes[other].in_move_buffer && other < si) return true;
-                          if (!should_collide(si, other) || has_contact(si, other)) return true;
-                          out->emplace_back(std::min(si, other), std::max(si, other));
-                          return found.fetch_add(1, std::memory_order_relaxed) < room;
-                        });
+    const uint64_t category = grouped ? ~0ull : s.filter.category_bits;
+    const uint64_t mask = grouped ? ~0ull : s.filter.mask_bits;
+    bool more = true;  // false once the contact limit is passed
+    auto walk = [&](const DynamicTree& t) {
+      t.query_filtered(box, category, mask, [&](int proxy) {
+        int other = static_cast<int>(t.user_data(proxy));
+        if (other == si) return true;
+        // A pair of two moved shapes is found from the lower index's side.
+        if (shapes[other].in_move_buffer && other < si) return true;
+        if (!should_collide(si, other) || has_contact(si, other)) return true;
+        out->emplace_back(std::min(si, other), std::max(si, other));
+        more = found.fetch_add(1, std::memory_order_relaxed) < room;
+        return more;
+      });
+    };
+    walk(tree);
+    if (more && bodies[s.body].type != BodyType::kStatic) walk(static_tree);
   };
   constexpr size_t kShapesPerChunk = 64;
   const size_t moved = move_buffer.size();

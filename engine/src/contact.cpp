@@ -169,7 +169,7 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
     Contact& c = contacts[list[k]];
     const Shape& sa = shapes[c.shape_a];
     const Shape& sb = shapes[c.shape_b];
-    if (!tree.fat_aabb(sa.proxy).overlaps(tree.fat_aabb(sb.proxy))) return;
+    if (!tree_of(sa).fat_aabb(sa.proxy).overlaps(tree_of(sb).fat_aabb(sb.proxy))) return;
     overlap[k] = 1;
     const Body& ba = bodies[c.body_a];
     const Body& bb = bodies[c.body_b];

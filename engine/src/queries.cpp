@@ -19,21 +19,26 @@ std::vector<RayHit> cast(const WorldImpl& w, const Vec2& origin, const Vec2& tra
                          const QueryFilter& filter, bool clip) {
   std::vector<RayHit> hits;
   if (!is_finite(origin) || !is_finite(translation)) return hits;
-  RayCastInput input{origin, translation, 1.0};
-  w.tree.ray_cast(input, [&](const RayCastInput& sub, int proxy) {
-    int si = static_cast<int>(w.tree.user_data(proxy));
-    const Shape& s = w.shapes[si];
-    if (!passes(s.filter, filter)) return sub.max_fraction;
-    const Transform& xf = w.bodies[s.body].xf;
-    RayCastInput local{xf.inv_apply(sub.origin), xf.q.inv_rotate(sub.translation),
-                       sub.max_fraction};
-    CastOutput out = ray_cast(s.geometry, local);
-    if (!out.hit) return sub.max_fraction;
-    hits.push_back(
-        RayHit{w.shape_id(si), xf.apply(out.point), xf.q.rotate(out.normal), out.fraction});
-    // Keep equal fractions reachable so that ties are broken by shape id below.
-    return clip ? out.fraction : sub.max_fraction;
-  });
+  // Both trees, the static one with the ray as far as the moving one left it.
+  double reach = 1.0;
+  for (const DynamicTree* t : {&w.tree, &w.static_tree}) {
+    const RayCastInput input{origin, translation, reach};
+    t->ray_cast(input, [&](const RayCastInput& sub, int proxy) {
+      int si = static_cast<int>(t->user_data(proxy));
+      const Shape& s = w.shapes[si];
+      if (!passes(s.filter, filter)) return sub.max_fraction;
+      const Transform& xf = w.bodies[s.body].xf;
+      RayCastInput local{xf.inv_apply(sub.origin), xf.q.inv_rotate(sub.translation),
+                         sub.max_fraction};
+      CastOutput out = ray_cast(s.geometry, local);
+      if (!out.hit) return sub.max_fraction;
+      hits.push_back(
+          RayHit{w.shape_id(si), xf.apply(out.point), xf.q.rotate(out.normal), out.fraction});
+      // Keep equal fractions reachable so that ties are broken by shape id below.
+      if (clip) reach = std::min(reach, out.fraction);
+      return clip ? out.fraction : sub.max_fraction;
+    });
+  }
   std::sort(hits.begin(), hits.end(), [](const RayHit& a, const RayHit& b) {
     return a.fraction != b.fraction ? a.fraction < b.fraction : a.shape.index < b.shape.index;
   });
@@ -66,14 +71,16 @@ std::vector<RayHit> World::ray_cast_all(const Vec2& origin, const Vec2& translat
 std::vector<ShapeId> World::overlap_aabb(const AABB& box, const QueryFilter& filter) const {
   const WorldImpl& w = *impl_;
   std::vector<int> found;
-  w.tree.query(box, [&](int proxy) {
-    int si = static_cast<int>(w.tree.user_data(proxy));
-    const Shape& s = w.shapes[si];
-    if (passes(s.filter, filter) && compute_aabb(s.geometry, w.bodies[s.body].xf).overlaps(box)) {
-      found.push_back(si);
-    }
-    return true;
-  });
+  for (const DynamicTree* t : {&w.tree, &w.static_tree}) {
+    t->query(box, [&](int proxy) {
+      int si = static_cast<int>(t->user_data(proxy));
+      const Shape& s = w.shapes[si];
+      if (passes(s.filter, filter) && compute_aabb(s.geometry, w.bodies[s.body].xf).overlaps(box)) {
+        found.push_back(si);
+      }
+      return true;
+    });
+  }
   return sorted_ids(w, std::move(found));
 }
 
@@ -81,15 +88,17 @@ std::vector<ShapeId> World::overlap_point(const Vec2& point, const QueryFilter& 
   const WorldImpl& w = *impl_;
   std::vector<int> found;
   AABB box{point, point};
-  w.tree.query(box, [&](int proxy) {
-    int si = static_cast<int>(w.tree.user_data(proxy));
-    const Shape& s = w.shapes[si];
-    if (passes(s.filter, filter) &&
-        contains_point(s.geometry, w.bodies[s.body].xf.inv_apply(point))) {
-      found.push_back(si);
-    }
-    return true;
-  });
+  for (const DynamicTree* t : {&w.tree, &w.static_tree}) {
+    t->query(box, [&](int proxy) {
+      int si = static_cast<int>(t->user_data(proxy));
+      const Shape& s = w.shapes[si];
+      if (passes(s.filter, filter) &&
+          contains_point(s.geometry, w.bodies[s.body].xf.inv_apply(point))) {
+        found.push_back(si);
+      }
+      return true;
+    });
+  }
   return sorted_ids(w, std::move(found));
 }
 

@@ -24,7 +24,7 @@ WorldSnapshot World::snapshot() const {
   s.shape_boxes.resize(w.shapes.size());
   for (size_t i = 0; i < w.shapes.size(); ++i) {
     Shape& shape = s.shapes[i];
-    if (shape.alive) s.shape_boxes[i] = w.tree.fat_aabb(shape.proxy);
+    if (shape.alive) s.shape_boxes[i] = w.tree_of(shape).fat_aabb(shape.proxy);
     shape.proxy = kNullIndex;
   }
   s.contacts = w.contacts;
@@ -416,8 +416,8 @@ Status World::restore(const WorldSnapshot& s) {
   // boxes do, so inserting in id order is enough.
   for (size_t si = 0; si < w.shapes.size(); ++si) {
     Shape& sh = w.shapes[si];
-    sh.proxy = sh.alive ? w.tree.create_proxy(s.shape_boxes[si], si, sh.filter.category_bits,
-                                              sh.filter.mask_bits)
+    sh.proxy = sh.alive ? w.tree_of(sh).create_proxy(s.shape_boxes[si], si, sh.filter.category_bits,
+                                                     sh.filter.mask_bits)
                         : kNullIndex;
     if (sh.alive) w.set_shape_thickness(static_cast<int>(si));
   }

@@ -151,10 +151,12 @@ void WorldImpl::wake_island(int start) {
 
 void WorldImpl::wake_in_box(const AABB& box) {
   std::vector<int> hits;
-  tree.query(box, [&](int proxy) {
-    hits.push_back(static_cast<int>(tree.user_data(proxy)));
-    return true;
-  });
+  for (const DynamicTree* t : {&tree, &static_tree}) {
+    t->query(box, [&](int proxy) {
+      hits.push_back(static_cast<int>(t->user_data(proxy)));
+      return true;
+    });
+  }
   edit_work += hits.size();
   std::sort(hits.begin(), hits.end());
   for (int si : hits) wake_island(shapes[si].body);
@@ -393,7 +395,7 @@ Result<ShapeId> World::create_shape(BodyId body, const ShapeDef& def) {
   }
   int si = add_shape(w, bi, def);
   w.add_shape_mass(bi, si);
-  w.wake_in_box(w.tree.fat_aabb(w.shapes[si].proxy));
+  w.wake_in_box(w.tree_of(w.shapes[si]).fat_aabb(w.shapes[si].proxy));
   return w.shape_id(si);
 }
 
@@ -417,7 +419,7 @@ Result<std::vector<ShapeId>> World::create_chain(BodyId body, const ChainDef& de
     sd.filter = def.filter;
     sd.user_data = def.user_data;
     int si = add_shape(w, bi, sd);
-    w.wake_in_box(w.tree.fat_aabb(w.shapes[si].proxy));
+    w.wake_in_box(w.tree_of(w.shapes[si]).fat_aabb(w.shapes[si].proxy));
     ids.push_back(w.shape_id(si));
   }
   return ids;
@@ -429,7 +431,7 @@ Status World::destroy_shape(ShapeId id) {
   if (si == kNullIndex) return stale_shape(id);
   int bi = w.shapes[si].body;
   w.wake_island(bi);
-  w.wake_in_box(w.tree.fat_aabb(w.shapes[si].proxy));
+  w.wake_in_box(w.tree_of(w.shapes[si]).fat_aabb(w.shapes[si].proxy));
   // Destroy the contacts of this shape only.
   for (int e = w.bodies[bi].contact_list; e != kNullIndex;) {
     int ci = edge_contact(e);
@@ -503,7 +505,8 @@ Status World::set_shape_filter(ShapeId id, const Filter& filter) {
   if (si == kNullIndex) return stale_shape(id);
   w.shapes[si].filter = filter;
   if (w.shapes[si].proxy != kNullIndex) {
-    w.tree.set_leaf_filter(w.shapes[si].proxy, filter.category_bits, filter.mask_bits);
+    w.tree_of(w.shapes[si])
+        .set_leaf_filter(w.shapes[si].proxy, filter.category_bits, filter.mask_bits);
   }
   int bi = w.shapes[si].body;
   // Drop contacts the new filter forbids; re-test the shape for new pairs.
@@ -538,7 +541,7 @@ Status World::set_transform(BodyId id, const Vec2& position, double angle) {
   b.center = b.xf.apply(b.local_center);
   w.wake_island(bi);
   w.synchronize_shapes(bi);
-  for (int si : b.shapes) w.wake_in_box(w.tree.fat_aabb(w.shapes[si].proxy));
+  for (int si : b.shapes) w.wake_in_box(w.tree_of(w.shapes[si]).fat_aabb(w.shapes[si].proxy));
   return {};
 }
 

@@ -94,7 +94,17 @@ class WorldImpl {
   // joints created, broad-phase leaves visited and bodies woken. Not state.
   uint64_t edit_work = 0;
 
+  // The broad phase's boxes: shapes of static bodies in a tree of their own, which no step
+  // rebuilds and which moved static shapes never query; the others (dynamic and kinematic) in
+  // `tree`. A body's type never changes, so a shape's tree is its body's (tree_of).
   DynamicTree tree;
+  DynamicTree static_tree;
+  DynamicTree& tree_of(const Shape& s) {
+    return bodies[s.body].type == BodyType::kStatic ? static_tree : tree;
+  }
+  const DynamicTree& tree_of(const Shape& s) const {
+    return bodies[s.body].type == BodyType::kStatic ? static_tree : tree;
+  }
   std::vector<int> move_buffer;  // shape indices whose proxies moved or were created
   std::vector<std::pair<int, AABB>> pending_moves;  // proxy and new fat box (commit_moves)
 

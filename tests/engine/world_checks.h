@@ -27,6 +27,7 @@ inline std::string world_problem(const World& w, bool restore_check = true) {
     if (!finite) return "body " + std::to_string(id.index) + " is not finite";
   }
   if (!w.impl().tree.validate()) return "the broad-phase tree is invalid";
+  if (!w.impl().static_tree.validate()) return "the broad-phase static tree is invalid";
   if (restore_check) {
     World copy{WorldSettings{}};
     Status s = copy.restore(w.snapshot());

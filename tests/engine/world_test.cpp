@@ -414,6 +414,44 @@ namespace {
 // The broad phase finds exactly the pairs brute force finds: after stepping a jumble of
 // shapes, every pair of shapes whose fat boxes overlap and that may collide has a contact, and
 // no other pair has one.
+// Static bodies' shapes live in a broad-phase tree of their own (engine/src/broad_phase.cpp):
+// queries and new pairs find shapes in both trees, and a static shape teleported into a
+// moving one's box makes a contact.
+TEST(WorldTest, StaticShapesHaveATreeOfTheirOwn) {
+  World w(WorldSettings{.gravity = Vec2::Zero()});
+  add_ground(w);
+  std::vector<BodyId> pegs, balls;
+  for (int i = 0; i < 10; ++i)
+    pegs.push_back(add_box(w, Vec2(3.0 * i, 2.0), 0.25, 0.0, 0.6, BodyType::kStatic));
+  for (int i = 0; i < 10; ++i) balls.push_back(add_ball(w, Vec2(3.0 * i, 4.0), 0.5));
+  add_box(w, Vec2(-5.0, 4.0), 0.5, 0.0, 0.6, BodyType::kKinematic);
+  const WorldImpl& impl = w.impl();
+  EXPECT_EQ(impl.static_tree.proxy_count(), 11);  // the ground and the pegs
+  EXPECT_EQ(impl.tree.proxy_count(), 11);         // the balls and the kinematic box
+  // A ray down through ball 2 and peg 2 to the ground: ball, peg, ground, closest first.
+  auto all = w.ray_cast_all(Vec2(6.0, 10.0), Vec2(0.0, -20.0));
+  ASSERT_EQ(all.size(), 3u);
+  EXPECT_EQ(w.shape_info(all[0].shape)->body, balls[2]);
+  EXPECT_EQ(w.shape_info(all[1].shape)->body, pegs[2]);
+  EXPECT_NEAR(all[1].point.y(), 2.25, 1e-12);
+  auto closest = w.ray_cast_closest(Vec2(6.0, 3.0), Vec2(0.0, -20.0));  // below the ball
+  ASSERT_TRUE(closest.has_value());
+  EXPECT_EQ(w.shape_info(closest->shape)->body, pegs[2]);
+  auto at = w.overlap_point(Vec2(3.1, 2.1));
+  ASSERT_EQ(at.size(), 1u);
+  EXPECT_EQ(w.shape_info(at[0])->body, pegs[1]);
+  EXPECT_EQ(w.overlap_aabb(AABB{Vec2(2.5, 1.5), Vec2(3.5, 4.5)}).size(), 2u);  // peg and ball 1
+  for (int i = 0; i < 5; ++i) w.step();
+  // Peg 0 moved into ball 0 (at rest, in no contact): the pair is found and the ball pushed.
+  ASSERT_TRUE(w.set_transform(pegs[0], Vec2(0.0, 3.6), 0.0).ok());
+  for (int i = 0; i < 30; ++i) w.step();
+  EXPECT_EQ(impl.static_tree.proxy_count(), 11);
+  EXPECT_GT(w.body_state(balls[0])->center.y(), 4.3);         // clear of the peg's top at 3.85
+  EXPECT_DOUBLE_EQ(w.body_state(balls[1])->center.y(), 4.0);  // untouched
+  EXPECT_TRUE(impl.tree.validate());
+  EXPECT_TRUE(impl.static_tree.validate());
+}
+
 TEST(WorldTest, BroadPhaseMatchesBruteForce) {
   World w(WorldSettings{.gravity = Vec2(0.0, -10.0)});
   add_ground(w, 30.0);
@@ -451,8 +489,9 @@ TEST(WorldTest, BroadPhaseMatchesBruteForce) {
   for (int a = 0; a < static_cast<int>(impl.shapes.size()); ++a) {
     for (int b = a + 1; b < static_cast<int>(impl.shapes.size()); ++b) {
       if (!impl.shapes[a].alive || !impl.shapes[b].alive || !impl.should_collide(a, b)) continue;
-      if (impl.tree.fat_aabb(impl.shapes[a].proxy)
-              .overlaps(impl.tree.fat_aabb(impl.shapes[b].proxy))) {
+      if (impl.tree_of(impl.shapes[a])
+              .fat_aabb(impl.shapes[a].proxy)
+              .overlaps(impl.tree_of(impl.shapes[b]).fat_aabb(impl.shapes[b].proxy))) {
         expected.emplace_back(a, b);
       }
     }
