@@ -195,6 +195,35 @@ void write_lane(const SolverScratch& s, const ContactRow& row, ContactBlock* b, 
 
 }  // namespace
 
+int take_colour(std::vector<uint32_t>& use, int a, bool write_a, int b, bool write_b,
+                bool highest) {
+  constexpr uint32_t kAll = kMaxColours == 32 ? ~0u : (1u << kMaxColours) - 1u;
+  const uint32_t used = (write_a ? use[a] : 0u) | (write_b ? use[b] : 0u);
+  const uint32_t free = ~used & kAll;
+  if (free == 0) return kMaxColours;
+  const int colour = highest ? 31 - __builtin_clz(free) : __builtin_ctz(free);
+  if (write_a) use[a] |= 1u << colour;
+  if (write_b) use[b] |= 1u << colour;
+  return colour;
+}
+
+ColourLayout lay_out_colours(const int count[kMaxColours + 1], std::vector<int>* colour_start) {
+  ColourLayout out;
+  for (int c = 0; c < kMaxColours; ++c) {
+    if (count[c] > 0) out.colours = c + 1;
+  }
+  colour_start->resize(out.colours + 1);
+  for (int c = 0; c < out.colours; ++c) {
+    (*colour_start)[c] = out.blocks;
+    out.next_lane[c] = out.blocks * kBlockLanes;
+    out.blocks += (count[c] + kBlockLanes - 1) / kBlockLanes;
+  }
+  (*colour_start)[out.colours] = out.blocks;
+  out.next_lane[kMaxColours] = out.blocks * kBlockLanes;
+  out.blocks += (count[kMaxColours] + kBlockLanes - 1) / kBlockLanes;
+  return out;
+}
+
 void colour_contacts(const SolverScratch& s, ColouredContacts* out, WorkerPool* pool) {
   const size_t n_rows = s.rows.size();
   std::vector<uint32_t>& use = out->body_use;
@@ -203,48 +232,27 @@ void colour_contacts(const SolverScratch& s, ColouredContacts* out, WorkerPool* 
   std::vector<int>& lane_of_row = out->lane_of_row;
   lane_of_row.resize(n_rows);
   int count[kMaxColours + 1] = {};
-  constexpr uint32_t kAll = kMaxColours == 32 ? ~0u : (1u << kMaxColours) - 1u;
   for (size_t k = 0; k < n_rows; ++k) {
     const ContactRow& row = s.rows[k];
     const bool dyn_a = s.bodies[row.ia].inv_mass > 0.0;
     const bool dyn_b = s.bodies[row.ib].inv_mass > 0.0;
-    uint32_t used = (dyn_a ? use[row.ia] : 0u) | (dyn_b ? use[row.ib] : 0u);
-    uint32_t free = ~used & kAll;
-    int colour = kMaxColours;
-    if (free != 0) {
-      // Contacts between two dynamic bodies take the lowest free colour, contacts with a
-      // static or kinematic body the highest: each pass solves them last, so the ground has
-      // the last word (a pyramid created overlapping then leaves no faster than 3 m/s, where
-      // lowest-first reached 3.15 m/s).
-      colour = dyn_a && dyn_b ? __builtin_ctz(free) : 31 - __builtin_clz(free);
-      if (dyn_a) use[row.ia] |= 1u << colour;
-      if (dyn_b) use[row.ib] |= 1u << colour;
-    }
+    // Contacts between two dynamic bodies take the lowest free colour, contacts with a static
+    // or kinematic body the highest: each pass solves them last, so the ground has the last
+    // word (a pyramid created overlapping then leaves no faster than 3 m/s, where lowest-first
+    // reached 3.15 m/s).
+    const int colour = take_colour(use, row.ia, dyn_a, row.ib, dyn_b, !(dyn_a && dyn_b));
     lane_of_row[k] = colour;
     ++count[colour];
   }
-  // Block ranges: each colour padded to whole blocks, in colour order, the overflow last.
-  int colours = 0;
-  for (int c = 0; c < kMaxColours; ++c) {
-    if (count[c] > 0) colours = c + 1;
-  }
+  ColourLayout layout = lay_out_colours(count, &out->colour_start);
+  const int colours = layout.colours;
+  int* next_lane = layout.next_lane;
   out->colours = colours;
-  out->colour_start.resize(colours + 1);
-  int blocks = 0;
-  int next_lane[kMaxColours + 1] = {};
-  for (int c = 0; c < colours; ++c) {
-    out->colour_start[c] = blocks;
-    next_lane[c] = blocks * kBlockLanes;
-    blocks += (count[c] + kBlockLanes - 1) / kBlockLanes;
-  }
-  out->colour_start[colours] = blocks;
-  next_lane[kMaxColours] = blocks * kBlockLanes;
-  blocks += (count[kMaxColours] + kBlockLanes - 1) / kBlockLanes;
   out->overflow = count[kMaxColours];
   // Lanes in id order within each colour; then the rows are copied in, each into its own lane
   // (in chunks, on the pool's threads if any).
   for (size_t k = 0; k < n_rows; ++k) lane_of_row[k] = next_lane[lane_of_row[k]]++;
-  out->blocks.resize(blocks);
+  out->blocks.resize(layout.blocks);
   auto fill = [&](int chunk) {
     const size_t lo = static_cast<size_t>(chunk) * kRowsPerChunk;
     const size_t hi = std::min(lo + kRowsPerChunk, n_rows);

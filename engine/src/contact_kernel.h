@@ -216,9 +216,11 @@ FULCRUM_LANE_INLINE void warm_lanes(ContactBlock& k, int l0, SolverBody* bodies)
   v.store(k, l0, bodies);
 }
 
-// Separation now, from the bodies' motion since the tick began (anchors turned with them).
-template <class V>
-FULCRUM_LANE_INLINE void separation_lanes(ContactBlock& k, int l0, const SolverBody* bodies) {
+// The motion rows (dpx, dpy, qc, qs) of a group of lanes' bodies A and B, element j of every
+// lane in a[j] and b[j]. Block as for LaneBodies.
+template <class V, class Block>
+FULCRUM_LANE_INLINE void load_motion_rows(const Block& k, int l0, const SolverBody* bodies, V a[4],
+                                          V b[4]) {
   using L = Lane<V>;
   const double* ra[L::kCount];
   const double* rb[L::kCount];
@@ -226,9 +228,16 @@ FULCRUM_LANE_INLINE void separation_lanes(ContactBlock& k, int l0, const SolverB
     ra[l] = motion_row(bodies[k.ia[l0 + l]]);
     rb[l] = motion_row(bodies[k.ib[l0 + l]]);
   }
-  V a[4], b[4];
   L::load_rows(ra, a);
   L::load_rows(rb, b);
+}
+
+// Separation now, from the bodies' motion since the tick began (anchors turned with them).
+template <class V>
+FULCRUM_LANE_INLINE void separation_lanes(ContactBlock& k, int l0, const SolverBody* bodies) {
+  using L = Lane<V>;
+  V a[4], b[4];
+  load_motion_rows<V>(k, l0, bodies, a, b);
   const V ddx = b[0] - a[0], ddy = b[1] - a[1];
   const V qca = a[2], qsa = a[3], qcb = b[2], qsb = b[3];
   const V nx = L::load(k.nx + l0), ny = L::load(k.ny + l0);

@@ -79,6 +79,22 @@ struct ColouredContacts {
 
 class WorkerPool;
 
+// Graph colouring's two shared steps (contacts here, revolute pins in joint_lanes.cpp).
+// The colour of a row between solver slots a and b, given which of them the row writes: the
+// lowest colour neither uses yet, or the highest with `highest`; kMaxColours (the overflow)
+// when none is free. The colour is marked used for the bodies written.
+int take_colour(std::vector<uint32_t>& use, int a, bool write_a, int b, bool write_b, bool highest);
+// Block ranges from the rows counted per colour (count[kMaxColours]: the overflow): each colour
+// padded to whole blocks, in colour order, the overflow last. Sets colour_start (colours + 1
+// entries) and next_lane[c], the first lane of colour c (the overflow's at kMaxColours); returns
+// the number of blocks.
+struct ColourLayout {
+  int colours = 0;
+  int blocks = 0;
+  int next_lane[kMaxColours + 1] = {};
+};
+ColourLayout lay_out_colours(const int count[kMaxColours + 1], std::vector<int>* colour_start);
+
 // Colours rows[0, n) of `s` (prepared, in id order) and packs them into blocks, with each
 // lane's separations computed from the bodies' motion as update_separations would.
 void colour_contacts(const SolverScratch& s, ColouredContacts* out, WorkerPool* pool);

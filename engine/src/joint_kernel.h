@@ -21,15 +21,8 @@ template <class V>
 FULCRUM_LANE_INLINE PointFrame<V> point_frame(const PointBlock& k, int l0,
                                               const SolverBody* bodies) {
   using L = Lane<V>;
-  const double* ra[L::kCount];
-  const double* rb[L::kCount];
-  for (int l = 0; l < L::kCount; ++l) {
-    ra[l] = motion_row(bodies[k.ia[l0 + l]]);
-    rb[l] = motion_row(bodies[k.ib[l0 + l]]);
-  }
   V a[4], b[4];  // dpx, dpy, qc, qs
-  L::load_rows(ra, a);
-  L::load_rows(rb, b);
+  load_motion_rows<V>(k, l0, bodies, a, b);
   const V rax = L::load(k.rax + l0), ray = L::load(k.ray + l0);
   const V rbx = L::load(k.rbx + l0), rby = L::load(k.rby + l0);
   PointFrame<V> f;
@@ -127,22 +120,28 @@ FULCRUM_LANE_INLINE void solve_point_lanes(PointBlock& k, int l0, SolverBody* bo
   v.store(k, l0, bodies);
 }
 
+// Fetched while block k of [first, end) is solved: the block two on, and the next block's
+// bodies.
+FULCRUM_LANE_INLINE void fetch_ahead(const PointBlock* blocks, int k, int end,
+                                     const SolverBody* bodies) {
+  if (k + 2 < end) {
+    const char* far = reinterpret_cast<const char*>(&blocks[k + 2]);
+    for (size_t line = 0; line < sizeof(PointBlock); line += 64) __builtin_prefetch(far + line);
+  }
+  if (k + 1 < end) {
+    const PointBlock& next = blocks[k + 1];
+    for (int l = 0; l < kBlockLanes; ++l) {
+      __builtin_prefetch(&bodies[next.ia[l]]);
+      __builtin_prefetch(&bodies[next.ib[l]]);
+    }
+  }
+}
+
 template <class V>
 void solve_point_blocks(PointBlock* blocks, int first, int end, SolverBody* bodies,
                         const PointRule& rule) {
   for (int k = first; k < end; ++k) {
-    // Fetch ahead while this block is solved: the block two on, and the next block's bodies.
-    if (k + 2 < end) {
-      const char* far = reinterpret_cast<const char*>(&blocks[k + 2]);
-      for (size_t line = 0; line < sizeof(PointBlock); line += 64) __builtin_prefetch(far + line);
-    }
-    if (k + 1 < end) {
-      const PointBlock& next = blocks[k + 1];
-      for (int l = 0; l < kBlockLanes; ++l) {
-        __builtin_prefetch(&bodies[next.ia[l]]);
-        __builtin_prefetch(&bodies[next.ib[l]]);
-      }
-    }
+    fetch_ahead(blocks, k, end, bodies);
     for (int l0 = 0; l0 < kBlockLanes; l0 += Lane<V>::kCount) {
       solve_point_lanes<V>(blocks[k], l0, bodies, rule);
     }
@@ -152,17 +151,7 @@ void solve_point_blocks(PointBlock* blocks, int first, int end, SolverBody* bodi
 template <class V>
 void warm_point_blocks(PointBlock* blocks, int first, int end, SolverBody* bodies) {
   for (int k = first; k < end; ++k) {
-    if (k + 2 < end) {
-      const char* far = reinterpret_cast<const char*>(&blocks[k + 2]);
-      for (size_t line = 0; line < sizeof(PointBlock); line += 64) __builtin_prefetch(far + line);
-    }
-    if (k + 1 < end) {
-      const PointBlock& next = blocks[k + 1];
-      for (int l = 0; l < kBlockLanes; ++l) {
-        __builtin_prefetch(&bodies[next.ia[l]]);
-        __builtin_prefetch(&bodies[next.ib[l]]);
-      }
-    }
+    fetch_ahead(blocks, k, end, bodies);
     for (int l0 = 0; l0 < kBlockLanes; l0 += Lane<V>::kCount) {
       warm_point_lanes<V>(blocks[k], l0, bodies);
     }

@@ -93,43 +93,22 @@ void colour_points(const std::vector<JointRow>& rows, const std::vector<SolverBo
   lane_of_row.assign(n_rows, -1);
   out->other_rows.clear();
   int count[kMaxColours + 1] = {};
-  constexpr uint32_t kAll = kMaxColours == 32 ? ~0u : (1u << kMaxColours) - 1u;
   for (size_t k = 0; k < n_rows; ++k) {
     const JointRow& r = rows[k];
     if (!r.plain_point) {
       out->other_rows.push_back(static_cast<int>(k));
       continue;
     }
-    const bool mov_a = movable(bodies[r.ia]);
-    const bool mov_b = movable(bodies[r.ib]);
-    const uint32_t used = (mov_a ? use[r.ia] : 0u) | (mov_b ? use[r.ib] : 0u);
-    const uint32_t free = ~used & kAll;
-    int colour = kMaxColours;
-    if (free != 0) {
-      colour = __builtin_ctz(free);
-      if (mov_a) use[r.ia] |= 1u << colour;
-      if (mov_b) use[r.ib] |= 1u << colour;
-    }
+    const int colour =
+        take_colour(use, r.ia, movable(bodies[r.ia]), r.ib, movable(bodies[r.ib]), false);
     lane_of_row[k] = colour;
     ++count[colour];
   }
-  int colours = 0;
-  for (int c = 0; c < kMaxColours; ++c) {
-    if (count[c] > 0) colours = c + 1;
-  }
+  ColourLayout layout = lay_out_colours(count, &out->colour_start);
+  const int colours = layout.colours;
+  int* next_lane = layout.next_lane;
   out->colours = colours;
-  out->colour_start.resize(colours + 1);
-  int blocks = 0;
-  int next_lane[kMaxColours + 1] = {};
-  for (int c = 0; c < colours; ++c) {
-    out->colour_start[c] = blocks;
-    next_lane[c] = blocks * kBlockLanes;
-    blocks += (count[c] + kBlockLanes - 1) / kBlockLanes;
-  }
-  out->colour_start[colours] = blocks;
-  next_lane[kMaxColours] = blocks * kBlockLanes;
-  blocks += (count[kMaxColours] + kBlockLanes - 1) / kBlockLanes;
-  out->blocks.resize(blocks);
+  out->blocks.resize(layout.blocks);
   out->points = 0;
   for (size_t k = 0; k < n_rows; ++k) {
     if (lane_of_row[k] < 0) continue;

@@ -107,33 +107,9 @@ TEST(ContactLanes, ABodyWithMoreContactsThanColoursOverflows) {
   EXPECT_LT(w.metrics().max_speed, 0.05);
 }
 
-// Every path this CPU runs gives the scalar path's state hash at every tick.
-void expect_paths_agree(const SceneDef& scene, int ticks) {
-  std::vector<std::vector<uint64_t>> runs;
-  for (SimdPath path : supported_simd_paths()) {
-    ASSERT_TRUE(set_simd_path(path).ok());
-    EXPECT_EQ(active_simd_path(), path);
-    World w = build(scene);
-    std::vector<uint64_t> hashes;
-    for (int i = 0; i < ticks; ++i) {
-      w.step();
-      hashes.push_back(w.state_hash());
-    }
-    runs.push_back(hashes);
-  }
-  ASSERT_TRUE(set_simd_path(SimdPath::kAuto).ok());
-  ASSERT_GE(runs.size(), 2u);  // scalar and the 2-lane baseline at least
-  for (size_t p = 1; p < runs.size(); ++p) {
-    for (int i = 0; i < ticks; ++i) {
-      ASSERT_EQ(runs[p][i], runs[0][i])
-          << simd_path_name(supported_simd_paths()[p]) << " differs from scalar at tick " << i + 1;
-    }
-  }
-}
-
 TEST(ContactLanes, EveryPathGivesTheScalarBits) {
-  expect_paths_agree(pyramid(12), 120);
-  expect_paths_agree(loaded_plank(40), 60);
+  expect_simd_paths_agree(pyramid(12), 120);
+  expect_simd_paths_agree(loaded_plank(40), 60);
 }
 
 // Any thread count gives one thread's state hash at every tick, on scenes large enough that

@@ -11,6 +11,7 @@
 #include "fulcrum/state.h"
 #include "fulcrum/trig.h"
 #include "fulcrum/world.h"
+#include "scene_fixture.h"
 
 namespace fulcrum {
 namespace {
@@ -259,19 +260,7 @@ TEST(ForcesState, EveryThreadCountGivesOneThreadsBits) {
   pull.strength = 400.0;
   pull.falloff = Falloff::kInverseSquare;
   scene.attractors.push_back(pull);
-  std::vector<uint64_t> reference;
-  for (int threads : {1, 2, 4}) {
-    World w = std::move(build_world(scene)).value();
-    ASSERT_TRUE(w.set_threads(threads).ok());
-    for (int i = 0; i < 60; ++i) {
-      w.step();
-      if (threads == 1) {
-        reference.push_back(w.state_hash());
-      } else {
-        ASSERT_EQ(w.state_hash(), reference[i]) << threads << " threads, tick " << i + 1;
-      }
-    }
-  }
+  testing::expect_thread_counts_agree(scene, 60, {1, 2, 4}, [](const World&) {});
 }
 
 }  // namespace

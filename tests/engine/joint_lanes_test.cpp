@@ -159,56 +159,22 @@ TEST(JointLanes, AHubWithMorePinsThanColoursOverflowsAndLimitedJointsStayRows) {
   EXPECT_LT(w.metrics().max_joint_error, 1e-3);
 }
 
-// Every path this CPU runs gives the scalar path's state hash at every tick.
-void expect_paths_agree(const SceneDef& scene, int ticks) {
-  std::vector<std::vector<uint64_t>> runs;
-  for (SimdPath path : supported_simd_paths()) {
-    ASSERT_TRUE(set_simd_path(path).ok());
-    World w = build(scene);
-    std::vector<uint64_t> hashes;
-    for (int i = 0; i < ticks; ++i) {
-      w.step();
-      hashes.push_back(w.state_hash());
-    }
-    runs.push_back(hashes);
-  }
-  ASSERT_TRUE(set_simd_path(SimdPath::kAuto).ok());
-  ASSERT_GE(runs.size(), 2u);
-  for (size_t p = 1; p < runs.size(); ++p) {
-    for (int i = 0; i < ticks; ++i) {
-      ASSERT_EQ(runs[p][i], runs[0][i])
-          << simd_path_name(supported_simd_paths()[p]) << " differs from scalar at tick " << i + 1;
-    }
-  }
-}
-
 TEST(JointLanes, EveryPathGivesTheScalarBits) {
-  expect_paths_agree(grid(9), 90);
+  expect_simd_paths_agree(grid(9), 90);
   // Pins 0.5 m out of place close at the cap: the capped lanes' own arithmetic.
   SceneDef apart = wheel(30, 0.5);
   World probe = build(apart);
   probe.step();
   EXPECT_GT(probe.metrics().max_joint_error, 0.3);
-  expect_paths_agree(apart, 60);
+  expect_simd_paths_agree(apart, 60);
 }
 
 TEST(JointLanes, EveryThreadCountGivesOneThreadsBits) {
-  const SceneDef scene = grid(20);  // 760 pins: colours of several chunks each
-  std::vector<uint64_t> reference;
-  for (int threads = 1; threads <= 4; ++threads) {
-    World w = build(scene);
-    ASSERT_TRUE(w.set_threads(threads).ok());
-    for (int i = 0; i < 60; ++i) {
-      w.step();
-      if (threads == 1) {
-        reference.push_back(w.state_hash());
-      } else {
-        ASSERT_EQ(w.state_hash(), reference[i]) << threads << " threads, tick " << i + 1;
-      }
-    }
+  // 760 pins: colours of several chunks each.
+  expect_thread_counts_agree(grid(20), 60, {1, 2, 3, 4}, [](const World& w) {
     const ColouredPoints& cp = w.impl().coloured_points;
     EXPECT_GE(cp.colour_start[1] - cp.colour_start[0], 2 * kBlocksPerChunk);
-  }
+  });
 }
 
 }  // namespace

@@ -6,10 +6,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <vector>
 
 #include "fulcrum/scene.h"
 #include "fulcrum/scenes.h"
+#include "fulcrum/simd.h"
 #include "fulcrum/world.h"
 
 namespace fulcrum::testing {
@@ -57,6 +59,52 @@ inline double run(World& w, int ticks) {
     if (w.tick() > 60) worst = std::max(worst, w.metrics().max_penetration);
   }
   return worst;
+}
+
+// Every instruction path this CPU runs gives the scalar path's state hash at every tick of
+// `scene` (at least scalar and the 2-lane baseline are compared).
+inline void expect_simd_paths_agree(const SceneDef& scene, int ticks) {
+  std::vector<std::vector<uint64_t>> runs;
+  for (SimdPath path : supported_simd_paths()) {
+    ASSERT_TRUE(set_simd_path(path).ok());
+    EXPECT_EQ(active_simd_path(), path);
+    World w = build(scene);
+    std::vector<uint64_t> hashes;
+    for (int i = 0; i < ticks; ++i) {
+      w.step();
+      hashes.push_back(w.state_hash());
+    }
+    runs.push_back(hashes);
+  }
+  ASSERT_TRUE(set_simd_path(SimdPath::kAuto).ok());
+  ASSERT_GE(runs.size(), 2u);
+  for (size_t p = 1; p < runs.size(); ++p) {
+    for (int i = 0; i < ticks; ++i) {
+      ASSERT_EQ(runs[p][i], runs[0][i])
+          << simd_path_name(supported_simd_paths()[p]) << " differs from scalar at tick " << i + 1;
+    }
+  }
+}
+
+// Each thread count in `counts` (the first is the reference) gives the same state hash at
+// every tick of `scene`; `after` (if any) is called on each world after its last tick.
+template <class After>
+void expect_thread_counts_agree(const SceneDef& scene, int ticks, std::initializer_list<int> counts,
+                                After after) {
+  std::vector<uint64_t> reference;
+  for (int threads : counts) {
+    World w = build(scene);
+    ASSERT_TRUE(w.set_threads(threads).ok());
+    for (int i = 0; i < ticks; ++i) {
+      w.step();
+      if (reference.size() < static_cast<size_t>(ticks)) {
+        reference.push_back(w.state_hash());
+      } else {
+        ASSERT_EQ(w.state_hash(), reference[i]) << threads << " threads, tick " << i + 1;
+      }
+    }
+    after(w);
+  }
 }
 
 }  // namespace fulcrum::testing
