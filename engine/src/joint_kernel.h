@@ -1,5 +1,5 @@
 // The plain revolute points of joint_lanes.h over a lane type V (contact_kernel.h's `double`,
-// 2 or 4 doubles), written as joint_frame, solve_revolute_point and warm_start_point_row are:
+// 2 or 4 doubles), written as joint_frame, solve_revolute_point and apply_joint_impulse are:
 // per lane the same operations in the same order, so every V gives the same bits. Included by
 // contact_kernel.cpp and contact_kernel_x4.cpp after contact_kernel.h.
 #pragma once
@@ -35,6 +35,8 @@ FULCRUM_LANE_INLINE PointFrame<V> point_frame(const PointBlock& k, int l0,
   return f;
 }
 
+// Warm start: the pin's accumulated impulse at its anchors as they are now (a pin has no angle
+// row: nothing turns about it).
 template <class V>
 FULCRUM_LANE_INLINE void warm_point_lanes(PointBlock& k, int l0, SolverBody* bodies) {
   using L = Lane<V>;

@@ -224,7 +224,5 @@ void solve_revolute_joint(Joint& j, const JointRow& r, const JointStep& st, Solv
 // A revolute joint's point rows, with its accumulated point impulse in `impulse` (x, y).
 void solve_revolute_point(const JointRow& r, const JointStep& st, double* impulse, SolverBody& a,
                           SolverBody& b);
-// Warm starting a plain point row (JointRow::plain_point) from the row's own impulse.
-void warm_start_point_row(const JointRow& r, SolverBody& a, SolverBody& b);
 
 }  // namespace fulcrum

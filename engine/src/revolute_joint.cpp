@@ -136,9 +136,4 @@ void solve_revolute_point(const JointRow& r, const JointStep& st, double* impuls
   apply_joint_impulse(f, px, py, a, b);
 }
 
-void warm_start_point_row(const JointRow& r, SolverBody& a, SolverBody& b) {
-  JointFrame f = joint_frame(r, a, b);
-  apply_joint_impulse(f, r.lix, r.liy, a, b);  // no angle rows: nothing turns about the pin
-}
-
 }  // namespace fulcrum
