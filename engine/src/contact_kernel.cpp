@@ -245,9 +245,8 @@ void colour_contacts(const SolverScratch& s, ColouredContacts* out, WorkerPool* 
     ++count[colour];
   }
   ColourLayout layout = lay_out_colours(count, &out->colour_start);
-  const int colours = layout.colours;
-  int* next_lane = layout.next_lane;
-  out->colours = colours;
+  int* next_lane = layout.next_lane;  // advanced as rows take their lanes
+  out->colours = layout.colours;
   out->overflow = count[kMaxColours];
   // Lanes in id order within each colour; then the rows are copied in, each into its own lane
   // (in chunks, on the pool's threads if any).
@@ -267,13 +266,8 @@ void colour_contacts(const SolverScratch& s, ColouredContacts* out, WorkerPool* 
   run_chunks(pool, chunks, fill);
   // Empty lanes at the end of each colour and of the overflow: the static body on both sides,
   // zero masses, nothing written.
-  auto clear_tail = [&](int lane_end) {
-    for (int lane = lane_end; lane % kBlockLanes != 0; ++lane) {
-      clear_lane(&out->blocks[lane / kBlockLanes], lane % kBlockLanes);
-    }
-  };
-  for (int c = 0; c < colours; ++c) clear_tail(next_lane[c]);
-  clear_tail(next_lane[kMaxColours]);
+  // Empty lanes: the static body on both sides, zero masses, nothing written.
+  pad_colours(layout, &out->blocks, clear_lane);
 }
 
 void unpack_impulses(const ColouredContacts& cc, SolverScratch* s, WorkerPool* pool) {

@@ -94,6 +94,19 @@ struct ColourLayout {
   int next_lane[kMaxColours + 1] = {};
 };
 ColourLayout lay_out_colours(const int count[kMaxColours + 1], std::vector<int>* colour_start);
+// Fills the rest of each colour's last block, and the overflow's, with empty lanes:
+// clear(block, lane) for each lane from layout.next_lane[c] (advanced past the rows placed) to
+// the block's end.
+template <class Block, class Clear>
+void pad_colours(const ColourLayout& layout, std::vector<Block>* blocks, Clear clear) {
+  auto tail = [&](int lane_end) {
+    for (int lane = lane_end; lane % kBlockLanes != 0; ++lane) {
+      clear(&(*blocks)[lane / kBlockLanes], lane % kBlockLanes);
+    }
+  };
+  for (int c = 0; c < layout.colours; ++c) tail(layout.next_lane[c]);
+  tail(layout.next_lane[kMaxColours]);
+}
 
 // Colours rows[0, n) of `s` (prepared, in id order) and packs them into blocks, with each
 // lane's separations computed from the bodies' motion as update_separations would.

@@ -105,9 +105,8 @@ void colour_points(const std::vector<JointRow>& rows, const std::vector<SolverBo
     ++count[colour];
   }
   ColourLayout layout = lay_out_colours(count, &out->colour_start);
-  const int colours = layout.colours;
-  int* next_lane = layout.next_lane;
-  out->colours = colours;
+  int* next_lane = layout.next_lane;  // advanced as rows take their lanes
+  out->colours = layout.colours;
   out->blocks.resize(layout.blocks);
   out->points = 0;
   for (size_t k = 0; k < n_rows; ++k) {
@@ -118,13 +117,8 @@ void colour_points(const std::vector<JointRow>& rows, const std::vector<SolverBo
     ++out->points;
   }
   // Padding lanes: the static body on both sides, a singular K, no change.
-  auto clear_tail = [&](int lane_end) {
-    for (int lane = lane_end; lane % kBlockLanes != 0; ++lane) {
-      clear_lane(&out->blocks[lane / kBlockLanes], lane % kBlockLanes);
-    }
-  };
-  for (int c = 0; c < colours; ++c) clear_tail(next_lane[c]);
-  clear_tail(next_lane[kMaxColours]);
+  // Padding lanes: the static body on both sides, a singular K, no change.
+  pad_colours(layout, &out->blocks, clear_lane);
 }
 
 void unpack_points(const ColouredPoints& cp, std::vector<JointRow>* rows) {

@@ -10,6 +10,7 @@
 #include "contact_lanes.h"
 #include "fulcrum/simd.h"
 #include "fulcrum/state.h"
+#include "lane_checks.h"
 #include "scene_fixture.h"
 #include "world_impl.h"
 
@@ -64,23 +65,7 @@ void expect_valid_colouring(const World& w) {
     EXPECT_EQ(b.ia[lane % kBlockLanes], s.rows[k].ia);
     EXPECT_EQ(b.ib[lane % kBlockLanes], s.rows[k].ib);
   }
-  // Within a colour, every body the solver writes is written by one lane only; only dynamic
-  // bodies are written.
-  for (int c = 0; c < cc.colours; ++c) {
-    std::set<int> written;
-    for (int k = cc.colour_start[c]; k < cc.colour_start[c + 1]; ++k) {
-      const ContactBlock& b = cc.blocks[k];
-      for (int l = 0; l < kBlockLanes; ++l) {
-        for (auto [slot, write] :
-             {std::pair{b.ia[l], b.write_a[l]}, std::pair{b.ib[l], b.write_b[l]}}) {
-          EXPECT_EQ(write != 0, s.bodies[slot].inv_mass > 0.0);
-          if (write) {
-            EXPECT_TRUE(written.insert(slot).second) << "colour " << c << " slot " << slot;
-          }
-        }
-      }
-    }
-  }
+  expect_each_body_written_once_per_colour(cc.blocks, cc.colour_start, cc.colours, s.bodies);
 }
 
 TEST(ContactLanes, ColoursNeverShareADynamicBody) {

@@ -11,6 +11,7 @@
 #include "fulcrum/simd.h"
 #include "fulcrum/trig.h"
 #include "joint_lanes.h"
+#include "lane_checks.h"
 #include "scene_fixture.h"
 #include "world_impl.h"
 
@@ -110,23 +111,7 @@ void expect_valid_colouring(const World& w) {
   }
   EXPECT_EQ(static_cast<int>(lanes_used.size()), cp.points);
   EXPECT_EQ(cp.other_rows, others);
-  // Within a colour, every body the lanes write is written by one lane only; only movable
-  // bodies are written.
-  for (int c = 0; c < cp.colours; ++c) {
-    std::set<int> written;
-    for (int k = cp.colour_start[c]; k < cp.colour_start[c + 1]; ++k) {
-      const PointBlock& b = cp.blocks[k];
-      for (int l = 0; l < kBlockLanes; ++l) {
-        for (auto [slot, write] :
-             {std::pair{b.ia[l], b.write_a[l]}, std::pair{b.ib[l], b.write_b[l]}}) {
-          EXPECT_EQ(write != 0, s.bodies[slot].inv_mass > 0.0);
-          if (write) {
-            EXPECT_TRUE(written.insert(slot).second) << "colour " << c << " slot " << slot;
-          }
-        }
-      }
-    }
-  }
+  expect_each_body_written_once_per_colour(cp.blocks, cp.colour_start, cp.colours, s.bodies);
 }
 
 TEST(JointLanes, ColoursNeverShareAMovableBody) {

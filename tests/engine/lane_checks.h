@@ -1,0 +1,36 @@
+// A check the contact and joint lane tests share: within a colour, every body the lanes write
+// is written by one lane only, and only bodies of finite mass are written.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <set>
+#include <vector>
+
+#include "contact_lanes.h"
+
+namespace fulcrum::testing {
+
+// Block: ContactBlock or PointBlock (ia, ib, write_a, write_b per lane).
+template <class Block>
+void expect_each_body_written_once_per_colour(const std::vector<Block>& blocks,
+                                              const std::vector<int>& colour_start, int colours,
+                                              const std::vector<SolverBody>& bodies) {
+  for (int c = 0; c < colours; ++c) {
+    std::set<int> written;
+    for (int k = colour_start[c]; k < colour_start[c + 1]; ++k) {
+      const Block& b = blocks[k];
+      for (int l = 0; l < kBlockLanes; ++l) {
+        for (auto [slot, write] :
+             {std::pair{b.ia[l], b.write_a[l]}, std::pair{b.ib[l], b.write_b[l]}}) {
+          EXPECT_EQ(write != 0, bodies[slot].inv_mass > 0.0);
+          if (write) {
+            EXPECT_TRUE(written.insert(slot).second) << "colour " << c << " slot " << slot;
+          }
+        }
+      }
+    }
+  }
+}
+
+}  // namespace fulcrum::testing
