@@ -266,7 +266,6 @@ void colour_contacts(const SolverScratch& s, ColouredContacts* out, WorkerPool* 
   run_chunks(pool, chunks, fill);
   // Empty lanes at the end of each colour and of the overflow: the static body on both sides,
   // zero masses, nothing written.
-  // Empty lanes: the static body on both sides, zero masses, nothing written.
   pad_colours(layout, &out->blocks, clear_lane);
 }
 

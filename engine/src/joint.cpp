@@ -229,18 +229,14 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
       r.plain_point = j.type == JointType::kRevolute && !j.enable_limit && !j.enable_motor &&
                       !j.enable_spring && j.spring_impulse == 0.0 && j.motor_impulse == 0.0 &&
                       j.lower_impulse == 0.0 && j.upper_impulse == 0.0;
-      if (r.plain_point) {
-        r.lix = j.linear_impulse.x();
-        r.liy = j.linear_impulse.y();
-      } else {
+      if (!r.plain_point) {
         r.angle = relative_angle(ba.xf.q, bb.xf.q, j.reference_angle);
         prepare_revolute_joint(j, r, a, b);
       }
     }
   }
   s.joint_rows.resize(n_rows);
-  coloured_points.soft = soft;
-  colour_points(s.joint_rows, s.bodies, &coloured_points);
+  colour_points(s.joint_rows, joints, s.bodies, &coloured_points);
 }
 
 void WorldImpl::warm_start_joints(WorkerPool* workers) {
@@ -291,12 +287,13 @@ void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers) {
   st.rigid = settings.joint_hertz == 0.0;
   st.baumgarte = settings.baumgarte;
   st.max_speed = settings.max_correction_speed;
-  // The same feedback solve_revolute_point gives its rows.
+  // The same feedback solve_revolute_point gives its rows (their softness, prepare_joints').
+  const Softness soft = make_softness(settings.joint_hertz, settings.joint_damping_ratio, st.h);
   PointRule rule;
   rule.use_bias = use_bias;
-  rule.rate = st.rigid ? st.baumgarte * st.inv_h : coloured_points.soft.bias_rate;
-  rule.mass_scale = st.rigid ? 1.0 : coloured_points.soft.mass_scale;
-  rule.impulse_scale = st.rigid ? 0.0 : coloured_points.soft.impulse_scale;
+  rule.rate = st.rigid ? st.baumgarte * st.inv_h : soft.bias_rate;
+  rule.mass_scale = st.rigid ? 1.0 : soft.mass_scale;
+  rule.impulse_scale = st.rigid ? 0.0 : soft.impulse_scale;
   rule.max_speed = st.max_speed;
   solve_points(coloured_points, s.bodies.data(), rule, workers);
   for (int k : coloured_points.other_rows) {
@@ -336,10 +333,7 @@ void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers) {
 }
 
 void WorldImpl::store_joint_impulses() {
-  unpack_points(coloured_points, &solver_scratch.joint_rows);
-  for (const JointRow& r : solver_scratch.joint_rows) {
-    if (r.plain_point) joints[r.joint].linear_impulse = Vec2(r.lix, r.liy);
-  }
+  unpack_points(coloured_points, solver_scratch.joint_rows, &joints);
 }
 
 namespace {

@@ -4,6 +4,7 @@
 #include <algorithm>
 
 #include "fulcrum/simd.h"
+#include "fulcrum/state.h"
 #include "joint_solver.h"
 #include "worker_pool.h"
 
@@ -26,7 +27,8 @@ void clear_lane(PointBlock* b, int l) {
   b->ix[l] = b->iy[l] = 0.0;
 }
 
-void write_lane(const JointRow& r, const std::vector<SolverBody>& bodies, PointBlock* b, int l) {
+void write_lane(const JointRow& r, const Joint& j, const std::vector<SolverBody>& bodies,
+                PointBlock* b, int l) {
   const SolverBody& a = bodies[r.ia];
   const SolverBody& bb = bodies[r.ib];
   b->ia[l] = r.ia;
@@ -41,8 +43,8 @@ void write_lane(const JointRow& r, const std::vector<SolverBody>& bodies, PointB
   b->rby[l] = r.rby;
   b->dcx[l] = r.dcx;
   b->dcy[l] = r.dcy;
-  b->ix[l] = r.lix;
-  b->iy[l] = r.liy;
+  b->ix[l] = j.linear_impulse.x();
+  b->iy[l] = j.linear_impulse.y();
 }
 
 struct PathFns {
@@ -84,8 +86,8 @@ void each_colour(ColouredPoints& cp, WorkerPool* pool, ColourFn colour_fn, Overf
 
 }  // namespace
 
-void colour_points(const std::vector<JointRow>& rows, const std::vector<SolverBody>& bodies,
-                   ColouredPoints* out) {
+void colour_points(const std::vector<JointRow>& rows, const std::vector<Joint>& joints,
+                   const std::vector<SolverBody>& bodies, ColouredPoints* out) {
   const size_t n_rows = rows.size();
   std::vector<uint32_t>& use = out->body_use;
   use.assign(bodies.size(), 0);
@@ -113,21 +115,22 @@ void colour_points(const std::vector<JointRow>& rows, const std::vector<SolverBo
     if (lane_of_row[k] < 0) continue;
     const int lane = next_lane[lane_of_row[k]]++;
     lane_of_row[k] = lane;
-    write_lane(rows[k], bodies, &out->blocks[lane / kBlockLanes], lane % kBlockLanes);
+    write_lane(rows[k], joints[rows[k].joint], bodies, &out->blocks[lane / kBlockLanes],
+               lane % kBlockLanes);
     ++out->points;
   }
-  // Padding lanes: the static body on both sides, a singular K, no change.
   // Padding lanes: the static body on both sides, a singular K, no change.
   pad_colours(layout, &out->blocks, clear_lane);
 }
 
-void unpack_points(const ColouredPoints& cp, std::vector<JointRow>* rows) {
-  for (size_t k = 0; k < rows->size(); ++k) {
+void unpack_points(const ColouredPoints& cp, const std::vector<JointRow>& rows,
+                   std::vector<Joint>* joints) {
+  for (size_t k = 0; k < rows.size(); ++k) {
     const int lane = cp.lane_of_row[k];
     if (lane < 0) continue;
     const PointBlock& b = cp.blocks[lane / kBlockLanes];
-    (*rows)[k].lix = b.ix[lane % kBlockLanes];
-    (*rows)[k].liy = b.iy[lane % kBlockLanes];
+    (*joints)[rows[k].joint].linear_impulse =
+        Vec2(b.ix[lane % kBlockLanes], b.iy[lane % kBlockLanes]);
   }
 }
 

@@ -16,6 +16,7 @@
 
 namespace fulcrum {
 
+struct Joint;
 struct JointRow;
 
 // Eight plain points, structure of arrays: what joint_frame and solve_revolute_point read.
@@ -46,14 +47,15 @@ struct ColouredPoints {
   std::vector<int> lane_of_row;    // joint row -> block * kBlockLanes + lane (-1: not a point)
   std::vector<int> other_rows;     // the rows that are not plain points, in row order
   std::vector<uint32_t> body_use;  // scratch: colours used per solver body
-  Softness soft;                   // the rows' feedback (the world's joint softness)
 };
 
-// Colours the plain point rows of `rows` and packs them into blocks.
-void colour_points(const std::vector<JointRow>& rows, const std::vector<SolverBody>& bodies,
-                   ColouredPoints* out);
-// Copies the lanes' impulses back into their rows (lix, liy).
-void unpack_points(const ColouredPoints& cp, std::vector<JointRow>* rows);
+// Colours the plain point rows of `rows` (joints[row.joint] their joints) and packs them into
+// blocks, each lane starting from its joint's accumulated point impulse.
+void colour_points(const std::vector<JointRow>& rows, const std::vector<Joint>& joints,
+                   const std::vector<SolverBody>& bodies, ColouredPoints* out);
+// Writes the lanes' point impulses back to their joints.
+void unpack_points(const ColouredPoints& cp, const std::vector<JointRow>& rows,
+                   std::vector<Joint>* joints);
 
 void warm_start_points(ColouredPoints& cp, SolverBody* bodies, WorkerPool* pool);
 void solve_points(ColouredPoints& cp, SolverBody* bodies, const PointRule& rule, WorkerPool* pool);

@@ -25,10 +25,9 @@ struct JointRow {
   Softness spring;                    // the joint's own spring (weld: linear part)
   Softness angular_spring;            // weld: angular part
   // A revolute joint that is only its point (no limit, motor or spring, and no impulse left
-  // on those rows) keeps its point impulse here for the tick, so that warm starting and
-  // solving it never touch the large Joint record; store_joint_impulses writes it back.
+  // on those rows): solved in lanes (joint_lanes.h), which keep its point impulse for the tick
+  // so that the passes never touch the large Joint record.
   bool plain_point = false;
-  double lix = 0.0, liy = 0.0;
 };
 
 // Context shared by every joint row of one substep.

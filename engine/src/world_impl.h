@@ -131,7 +131,7 @@ class WorldImpl {
   // row in row order.
   void warm_start_joints(WorkerPool* workers);
   void solve_joints(bool use_bias, WorkerPool* workers);
-  // Writes the tick's point impulses of plain point rows back to their joints.
+  // Writes the tick's point impulses of the plain pins' lanes back to their joints.
   void store_joint_impulses();
   // Spring force elements: one substep's forces into the solver bodies' velocities.
   void apply_spring_forces(double h);
