@@ -143,8 +143,6 @@ static_assert(kMaxColours <= 32, "colours are bits of a uint32_t");
 
 namespace {
 
-constexpr size_t kRowsPerChunk = 256;
-
 void clear_point(LanePoint* q, int l) {
   q->rax[l] = q->ray[l] = q->rbx[l] = q->rby[l] = 0.0;
   q->separation[l] = q->base_separation[l] = 0.0;
@@ -161,9 +159,9 @@ void clear_lane(ContactBlock* b, int l) {
   clear_point(&b->points[1], l);
 }
 
-void write_lane(const SolverScratch& s, const ContactRow& row, ContactBlock* b, int l) {
-  const SolverBody& a = s.bodies[row.ia];
-  const SolverBody& bb = s.bodies[row.ib];
+void write_lane(const SolverBody* bodies, const ContactRow& row, ContactBlock* b, int l) {
+  const SolverBody& a = bodies[row.ia];
+  const SolverBody& bb = bodies[row.ib];
   b->ia[l] = row.ia;
   b->ib[l] = row.ib;
   b->write_a[l] = a.inv_mass > 0.0;
@@ -224,18 +222,19 @@ ColourLayout lay_out_colours(const int count[kMaxColours + 1], std::vector<int>*
   return out;
 }
 
-void colour_contacts(const SolverScratch& s, ColouredContacts* out, WorkerPool* pool) {
-  const size_t n_rows = s.rows.size();
+void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<SolverBody>& bodies,
+                     ColouredContacts* out) {
+  const size_t n_rows = rows.size();
   std::vector<uint32_t>& use = out->body_use;
-  use.assign(s.bodies.size(), 0);
+  use.assign(bodies.size(), 0);
   // Pass 1: each row's colour (kMaxColours: overflow), counted per colour.
   std::vector<int>& lane_of_row = out->lane_of_row;
   lane_of_row.resize(n_rows);
   int count[kMaxColours + 1] = {};
   for (size_t k = 0; k < n_rows; ++k) {
-    const ContactRow& row = s.rows[k];
-    const bool dyn_a = s.bodies[row.ia].inv_mass > 0.0;
-    const bool dyn_b = s.bodies[row.ib].inv_mass > 0.0;
+    const RowBodies& row = rows[k];
+    const bool dyn_a = bodies[row.ia].inv_mass > 0.0;
+    const bool dyn_b = bodies[row.ib].inv_mass > 0.0;
     // Contacts between two dynamic bodies take the lowest free colour, contacts with a static
     // or kinematic body the highest: each pass solves them last, so the ground has the last
     // word (a pyramid created overlapping then leaves no faster than 3 m/s, where lowest-first
@@ -248,46 +247,19 @@ void colour_contacts(const SolverScratch& s, ColouredContacts* out, WorkerPool* 
   int* next_lane = layout.next_lane;  // advanced as rows take their lanes
   out->colours = layout.colours;
   out->overflow = count[kMaxColours];
-  // Lanes in id order within each colour; then the rows are copied in, each into its own lane
-  // (in chunks, on the pool's threads if any).
+  // Lanes in id order within each colour; pack_row then fills each row's lane.
   for (size_t k = 0; k < n_rows; ++k) lane_of_row[k] = next_lane[lane_of_row[k]]++;
   out->blocks.resize(layout.blocks);
-  auto fill = [&](int chunk) {
-    const size_t lo = static_cast<size_t>(chunk) * kRowsPerChunk;
-    const size_t hi = std::min(lo + kRowsPerChunk, n_rows);
-    for (size_t k = lo; k < hi; ++k) {
-      const int lane_index = lane_of_row[k];
-      ContactBlock* block = &out->blocks[lane_index / kBlockLanes];
-      write_lane(s, s.rows[k], block, lane_index % kBlockLanes);
-      separation_lanes<double>(*block, lane_index % kBlockLanes, s.bodies.data());
-    }
-  };
-  const int chunks = static_cast<int>((n_rows + kRowsPerChunk - 1) / kRowsPerChunk);
-  run_chunks(pool, chunks, fill);
   // Empty lanes at the end of each colour and of the overflow: the static body on both sides,
   // zero masses, nothing written.
   pad_colours(layout, &out->blocks, clear_lane);
 }
 
-void unpack_impulses(const ColouredContacts& cc, SolverScratch* s, WorkerPool* pool) {
-  const size_t n_rows = s->rows.size();
-  auto chunk = [&](int i) {
-    const size_t lo = static_cast<size_t>(i) * kRowsPerChunk;
-    const size_t hi = std::min(lo + kRowsPerChunk, n_rows);
-    for (size_t k = lo; k < hi; ++k) {
-      const int lane_index = cc.lane_of_row[k];
-      const ContactBlock& b = cc.blocks[lane_index / kBlockLanes];
-      const int l = lane_index % kBlockLanes;
-      ContactRow& row = s->rows[k];
-      for (int p = 0; p < row.count; ++p) {
-        row.points[p].normal_impulse = b.points[p].normal_impulse[l];
-        row.points[p].tangent_impulse = b.points[p].tangent_impulse[l];
-        row.points[p].max_normal_impulse = b.points[p].max_normal_impulse[l];
-      }
-    }
-  };
-  const int chunks = static_cast<int>((n_rows + kRowsPerChunk - 1) / kRowsPerChunk);
-  run_chunks(pool, chunks, chunk);
+void pack_row(const SolverBody* bodies, const ContactRow& row, size_t k, ColouredContacts* cc) {
+  const int lane_index = cc->lane_of_row[k];
+  ContactBlock* block = &cc->blocks[lane_index / kBlockLanes];
+  write_lane(bodies, row, block, lane_index % kBlockLanes);
+  separation_lanes<double>(*block, lane_index % kBlockLanes, bodies);
 }
 
 // --- Passes ----------------------------------------------------------------------------------

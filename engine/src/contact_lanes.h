@@ -108,11 +108,13 @@ void pad_colours(const ColourLayout& layout, std::vector<Block>* blocks, Clear c
   tail(layout.next_lane[kMaxColours]);
 }
 
-// Colours rows[0, n) of `s` (prepared, in id order) and packs them into blocks, with each
-// lane's separations computed from the bodies' motion as update_separations would.
-void colour_contacts(const SolverScratch& s, ColouredContacts* out, WorkerPool* pool);
-// Copies the accumulated impulses back into the rows (for restitution and storage).
-void unpack_impulses(const ColouredContacts& cc, SolverScratch* s, WorkerPool* pool);
+// Colours the rows (in id order) by their bodies and lays out the blocks: each row's lane
+// (lane_of_row), the colours' ranges, the padding. The rows' lanes are left for pack_row.
+void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<SolverBody>& bodies,
+                     ColouredContacts* out);
+// Writes row k (prepared) into its lane, with its separations computed from the bodies' motion
+// as update_separations would. Rows of one block may be packed on different threads.
+void pack_row(const SolverBody* bodies, const ContactRow& row, size_t k, ColouredContacts* cc);
 
 // Lanes [first, first + count) of blocks, for each path. Each returns the largest corrective
 // impulse (0 unless the rule asks for it). Declared per path so that the 4-lane path can live in a

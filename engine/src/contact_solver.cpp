@@ -223,83 +223,107 @@ void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScr
   }
 }
 
-// Rows [first, end): each depends only on its own contact and bodies.
-void prepare_rows(WorldImpl& w, SolverScratch& s, double h, size_t first, size_t end) {
+// What every row of a tick shares: the settings' softnesses and how impulses are carried over.
+struct RowRule {
+  Softness soft;
+  Softness static_soft;  // against immovable bodies: twice as stiff
+  bool rigid = false;
+  bool block_solver = false;
+  bool warm_starting = true;
+  // Impulses are kept between ticks per world substep (budget.cpp): an island run with more
+  // substeps starts from its share of them.
+  bool rescale = false;
+  double share = 1.0;
+};
+
+RowRule row_rule(const WorldImpl& w, double h) {
   const WorldSettings& set = w.settings;
-  const Softness soft = make_softness(set.contact_hertz, set.contact_damping_ratio, h);
-  // Contacts against immovable bodies take the push-out alone: twice as stiff.
-  const Softness static_soft = make_softness(2.0 * set.contact_hertz, set.contact_damping_ratio, h);
-  const bool rigid = set.contact_hertz == 0.0;
-  // Impulses are kept per world substep (budget.cpp): an island run with more substeps starts
-  // from its share of them.
-  const bool rescale = set.substeps != w.budget.base_substeps;
-  const double share = static_cast<double>(w.budget.base_substeps) / set.substeps;
-  for (size_t k = first; k < end; ++k) {
-    const Contact& c = w.contacts[s.contacts[k]];
-    const Body& body_a = w.bodies[c.body_a];
-    const Body& body_b = w.bodies[c.body_b];
-    ContactRow& row = s.rows[k];
-    ContactRowExtra& extra = s.extras[k];
-    extra.contact = s.contacts[k];
-    extra.restitution = c.restitution;
-    row.ia = body_a.awake ? s.body_slot[c.body_a] : 0;
-    row.ib = body_b.awake ? s.body_slot[c.body_b] : 0;
-    row.nx = c.manifold.normal.x();
-    row.ny = c.manifold.normal.y();
-    row.friction = c.friction;
-    row.count = c.manifold.count;
-    const SolverBody& a = s.bodies[row.ia];
-    const SolverBody& b = s.bodies[row.ib];
-    row.softness = (a.inv_mass == 0.0 || b.inv_mass == 0.0) ? static_soft : soft;
-    const double nx = row.nx, ny = row.ny;
-    const double tx = ny, ty = -nx;
-    const double m = a.inv_mass + b.inv_mass;
-    for (int i = 0; i < row.count; ++i) {
-      const ManifoldPoint& mp = c.manifold.points[i];
-      ContactPointRow& p = row.points[i];
-      p.rax = mp.point.x() - body_a.center.x();
-      p.ray = mp.point.y() - body_a.center.y();
-      p.rbx = mp.point.x() - body_b.center.x();
-      p.rby = mp.point.y() - body_b.center.y();
-      p.base_separation = mp.separation - ((p.rbx - p.rax) * nx + (p.rby - p.ray) * ny);
-      double rna = p.rax * ny - p.ray * nx, rnb = p.rbx * ny - p.rby * nx;
-      double kn = m + a.inv_inertia * rna * rna + b.inv_inertia * rnb * rnb;
-      p.normal_mass = kn > 0.0 ? 1.0 / kn : 0.0;
-      double rta = p.rax * ty - p.ray * tx, rtb = p.rbx * ty - p.rby * tx;
-      double kt = m + a.inv_inertia * rta * rta + b.inv_inertia * rtb * rtb;
-      p.tangent_mass = kt > 0.0 ? 1.0 / kt : 0.0;
-      p.normal_impulse = set.warm_starting ? mp.normal_impulse : 0.0;
-      p.tangent_impulse = set.warm_starting ? mp.tangent_impulse : 0.0;
-      if (rescale) {
-        p.normal_impulse *= share;
-        p.tangent_impulse *= share;
-      }
-      p.max_normal_impulse = 0.0;
-      extra.approach_speed[i] = normal_speed(a, b, p, nx, ny);
-      extra.pseudo_impulse[i] = 0.0;
+  RowRule r;
+  r.soft = make_softness(set.contact_hertz, set.contact_damping_ratio, h);
+  r.static_soft = make_softness(2.0 * set.contact_hertz, set.contact_damping_ratio, h);
+  r.rigid = set.contact_hertz == 0.0;
+  r.block_solver = set.block_solver;
+  r.warm_starting = set.warm_starting;
+  r.rescale = set.substeps != w.budget.base_substeps;
+  r.share = static_cast<double>(w.budget.base_substeps) / set.substeps;
+  return r;
+}
+
+// The solver body slots of a contact's bodies (0, the shared static body, for a body not awake).
+RowBodies row_bodies(const WorldImpl& w, const SolverScratch& s, const Contact& c) {
+  const Body& body_a = w.bodies[c.body_a];
+  const Body& body_b = w.bodies[c.body_b];
+  return RowBodies{body_a.awake ? s.body_slot[c.body_a] : 0,
+                   body_b.awake ? s.body_slot[c.body_b] : 0};
+}
+
+// Row k (contact s.contacts[k]): depends only on its own contact and bodies. The extra's
+// approach speeds only for a contact with restitution (nothing else reads them).
+void prepare_row(const WorldImpl& w, const SolverScratch& s, const RowRule& r, size_t k,
+                 ContactRow& row, ContactRowExtra& extra) {
+  const Contact& c = w.contacts[s.contacts[k]];
+  const Body& body_a = w.bodies[c.body_a];
+  const Body& body_b = w.bodies[c.body_b];
+  extra.contact = s.contacts[k];
+  extra.restitution = c.restitution;
+  const RowBodies slots = row_bodies(w, s, c);
+  row.ia = slots.ia;
+  row.ib = slots.ib;
+  row.nx = c.manifold.normal.x();
+  row.ny = c.manifold.normal.y();
+  row.friction = c.friction;
+  row.count = c.manifold.count;
+  const SolverBody& a = s.bodies[row.ia];
+  const SolverBody& b = s.bodies[row.ib];
+  row.softness = (a.inv_mass == 0.0 || b.inv_mass == 0.0) ? r.static_soft : r.soft;
+  const double nx = row.nx, ny = row.ny;
+  const double tx = ny, ty = -nx;
+  const double m = a.inv_mass + b.inv_mass;
+  for (int i = 0; i < row.count; ++i) {
+    const ManifoldPoint& mp = c.manifold.points[i];
+    ContactPointRow& p = row.points[i];
+    p.rax = mp.point.x() - body_a.center.x();
+    p.ray = mp.point.y() - body_a.center.y();
+    p.rbx = mp.point.x() - body_b.center.x();
+    p.rby = mp.point.y() - body_b.center.y();
+    p.base_separation = mp.separation - ((p.rbx - p.rax) * nx + (p.rby - p.ray) * ny);
+    double rna = p.rax * ny - p.ray * nx, rnb = p.rbx * ny - p.rby * nx;
+    double kn = m + a.inv_inertia * rna * rna + b.inv_inertia * rnb * rnb;
+    p.normal_mass = kn > 0.0 ? 1.0 / kn : 0.0;
+    double rta = p.rax * ty - p.ray * tx, rtb = p.rbx * ty - p.rby * tx;
+    double kt = m + a.inv_inertia * rta * rta + b.inv_inertia * rtb * rtb;
+    p.tangent_mass = kt > 0.0 ? 1.0 / kt : 0.0;
+    p.normal_impulse = r.warm_starting ? mp.normal_impulse : 0.0;
+    p.tangent_impulse = r.warm_starting ? mp.tangent_impulse : 0.0;
+    if (r.rescale) {
+      p.normal_impulse *= r.share;
+      p.tangent_impulse *= r.share;
     }
-    row.linear = a.inv_inertia == 0.0 && a.w == 0.0 && b.inv_inertia == 0.0 && b.w == 0.0;
-    row.block = false;
-    if (rigid && row.count == 2 && set.block_solver && !row.linear) {
-      const ContactPointRow& p1 = row.points[0];
-      const ContactPointRow& p2 = row.points[1];
-      double rn1a = p1.rax * ny - p1.ray * nx, rn1b = p1.rbx * ny - p1.rby * nx;
-      double rn2a = p2.rax * ny - p2.ray * nx, rn2b = p2.rbx * ny - p2.rby * nx;
-      double k11 = m + a.inv_inertia * rn1a * rn1a + b.inv_inertia * rn1b * rn1b;
-      double k22 = m + a.inv_inertia * rn2a * rn2a + b.inv_inertia * rn2b * rn2b;
-      double k12 = m + a.inv_inertia * rn1a * rn2a + b.inv_inertia * rn1b * rn2b;
-      double det = k11 * k22 - k12 * k12;
-      // Only when K is well conditioned; otherwise the two rows are solved one by one.
-      if (k11 * k11 < 1000.0 * det) {
-        row.block = true;
-        double inv_det = 1.0 / det;
-        extra.k11 = k11;
-        extra.k12 = k12;
-        extra.k22 = k22;
-        extra.i11 = k22 * inv_det;
-        extra.i12 = -k12 * inv_det;
-        extra.i22 = k11 * inv_det;
-      }
+    p.max_normal_impulse = 0.0;
+    if (c.restitution != 0.0) extra.approach_speed[i] = normal_speed(a, b, p, nx, ny);
+    extra.pseudo_impulse[i] = 0.0;
+  }
+  row.linear = a.inv_inertia == 0.0 && a.w == 0.0 && b.inv_inertia == 0.0 && b.w == 0.0;
+  row.block = false;
+  if (r.rigid && row.count == 2 && r.block_solver && !row.linear) {
+    const ContactPointRow& p1 = row.points[0];
+    const ContactPointRow& p2 = row.points[1];
+    double rn1a = p1.rax * ny - p1.ray * nx, rn1b = p1.rbx * ny - p1.rby * nx;
+    double rn2a = p2.rax * ny - p2.ray * nx, rn2b = p2.rbx * ny - p2.rby * nx;
+    double k11 = m + a.inv_inertia * rn1a * rn1a + b.inv_inertia * rn1b * rn1b;
+    double k22 = m + a.inv_inertia * rn2a * rn2a + b.inv_inertia * rn2b * rn2b;
+    double k12 = m + a.inv_inertia * rn1a * rn2a + b.inv_inertia * rn1b * rn2b;
+    double det = k11 * k22 - k12 * k12;
+    // Only when K is well conditioned; otherwise the two rows are solved one by one.
+    if (k11 * k11 < 1000.0 * det) {
+      row.block = true;
+      double inv_det = 1.0 / det;
+      extra.k11 = k11;
+      extra.k12 = k12;
+      extra.k22 = k22;
+      extra.i11 = k22 * inv_det;
+      extra.i12 = -k12 * inv_det;
+      extra.i22 = k11 * inv_det;
     }
   }
 }
@@ -315,15 +339,48 @@ void for_chunks(WorkerPool* pool, size_t n, size_t per_chunk, F fn) {
   run_chunks(pool, chunks, chunk);
 }
 
+// Every row, for the rigid step (solved row by row) and the reference solver.
 void prepare(WorldImpl& w, SolverScratch& s, double h, WorkerPool* pool) {
   const size_t n_rows = s.contacts.size();
   s.rows.resize(n_rows);
   s.extras.resize(n_rows);
-  for_chunks(pool, n_rows, 256, [&](size_t lo, size_t hi) { prepare_rows(w, s, h, lo, hi); });
+  const RowRule r = row_rule(w, h);
+  for_chunks(pool, n_rows, 256, [&](size_t lo, size_t hi) {
+    for (size_t k = lo; k < hi; ++k) prepare_row(w, s, r, k, s.rows[k], s.extras[k]);
+  });
   s.restitution_rows.clear();
   for (size_t k = 0; k < n_rows; ++k) {
     if (s.extras[k].restitution != 0.0) s.restitution_rows.push_back(static_cast<int>(k));
   }
+}
+
+// Soft contacts: each row is prepared where it is used, straight into its lane
+// (contact_lanes.h); only rows with restitution are also kept in s.rows and s.extras, for the
+// restitution steps. Coloured in id order first, from the rows' bodies.
+void prepare_coloured(WorldImpl& w, SolverScratch& s, double h, ColouredContacts* cc,
+                      WorkerPool* pool) {
+  const size_t n_rows = s.contacts.size();
+  s.rows.resize(n_rows);
+  s.extras.resize(n_rows);
+  s.row_bodies.resize(n_rows);
+  s.restitution_rows.clear();
+  for (size_t k = 0; k < n_rows; ++k) {
+    const Contact& c = w.contacts[s.contacts[k]];
+    s.row_bodies[k] = row_bodies(w, s, c);
+    if (c.restitution != 0.0) s.restitution_rows.push_back(static_cast<int>(k));
+  }
+  colour_contacts(s.row_bodies, s.bodies, cc);
+  const RowRule r = row_rule(w, h);
+  for_chunks(pool, n_rows, 256, [&](size_t lo, size_t hi) {
+    ContactRow scratch_row;
+    ContactRowExtra scratch_extra;
+    for (size_t k = lo; k < hi; ++k) {
+      const bool kept = w.contacts[s.contacts[k]].restitution != 0.0;
+      ContactRow& row = kept ? s.rows[k] : scratch_row;
+      prepare_row(w, s, r, k, row, kept ? s.extras[k] : scratch_extra);
+      pack_row(s.bodies.data(), row, k, cc);
+    }
+  });
 }
 
 // Restitution needs the speed of approach at impact, not at the start of the tick. Within a
@@ -598,38 +655,59 @@ void integrate_positions(SolverScratch& s, double h, double max_speed, size_t fi
   }
 }
 
+// Where point i of row k keeps its accumulated impulses during the tick: in its lane when the
+// rows are coloured (null: in the row).
+struct PointImpulses {
+  double* normal;
+  double* tangent;
+  double* max_normal;
+};
+
+PointImpulses impulses_of(SolverScratch& s, ColouredContacts* lanes, size_t k, int i) {
+  if (lanes == nullptr) {
+    ContactPointRow& p = s.rows[k].points[i];
+    return {&p.normal_impulse, &p.tangent_impulse, &p.max_normal_impulse};
+  }
+  const int lane = lanes->lane_of_row[k];
+  LanePoint& q = lanes->blocks[lane / kBlockLanes].points[i];
+  const int l = lane % kBlockLanes;
+  return {&q.normal_impulse[l], &q.tangent_impulse[l], &q.max_normal_impulse[l]};
+}
+
 // Bounce: points that approached faster than the threshold and carried load leave with
 // -e times their approach speed.
-void apply_restitution(SolverScratch& s, double threshold) {
+void apply_restitution(SolverScratch& s, ColouredContacts* lanes, double threshold) {
   for (int k : s.restitution_rows) {
-    ContactRow& row = s.rows[k];
+    const ContactRow& row = s.rows[k];
     const ContactRowExtra& extra = s.extras[k];
     SolverBody& a = s.bodies[row.ia];
     SolverBody& b = s.bodies[row.ib];
     for (int i = 0; i < row.count; ++i) {
-      ContactPointRow& p = row.points[i];
+      const ContactPointRow& p = row.points[i];
+      const PointImpulses acc_of = impulses_of(s, lanes, k, i);
       double approach = extra.approach_speed[i];
-      if (approach > -threshold || p.max_normal_impulse == 0.0) continue;
+      if (approach > -threshold || *acc_of.max_normal == 0.0) continue;
       double vn = normal_speed(a, b, p, row.nx, row.ny);
       double lambda = -p.normal_mass * (vn + extra.restitution * approach);
-      double acc = std::max(p.normal_impulse + lambda, 0.0);
-      lambda = acc - p.normal_impulse;
-      p.normal_impulse = acc;
+      double acc = std::max(*acc_of.normal + lambda, 0.0);
+      lambda = acc - *acc_of.normal;
+      *acc_of.normal = acc;
       apply_impulse(a, b, p, lambda * row.nx, lambda * row.ny);
     }
   }
 }
 
-void store_impulses(WorldImpl& w, const SolverScratch& s, size_t first, size_t end) {
+void store_impulses(WorldImpl& w, SolverScratch& s, ColouredContacts* lanes, size_t first,
+                    size_t end) {
   // Per world substep, whatever this group ran (budget.cpp).
   const int substeps = w.settings.substeps, base = w.budget.base_substeps;
   const double per_base = static_cast<double>(substeps) / base;
   for (size_t k = first; k < end; ++k) {
-    const ContactRow& row = s.rows[k];
-    Manifold& m = w.contacts[s.extras[k].contact].manifold;
-    for (int i = 0; i < row.count; ++i) {
-      m.points[i].normal_impulse = row.points[i].normal_impulse;
-      m.points[i].tangent_impulse = row.points[i].tangent_impulse;
+    Manifold& m = w.contacts[s.contacts[k]].manifold;
+    for (int i = 0; i < m.count; ++i) {
+      const PointImpulses acc = impulses_of(s, lanes, k, i);
+      m.points[i].normal_impulse = *acc.normal;
+      m.points[i].tangent_impulse = *acc.tangent;
       if (substeps != base) {
         m.points[i].normal_impulse *= per_base;
         m.points[i].tangent_impulse *= per_base;
@@ -687,7 +765,11 @@ void WorldImpl::solve_group(const std::vector<int>& awake) {
           ? pool
           : nullptr;
   if (workers != nullptr) workers->begin_busy();
-  prepare(*this, s, h, workers);
+  if (coloured) {
+    prepare_coloured(*this, s, h, &coloured_contacts, workers);
+  } else {
+    prepare(*this, s, h, workers);
+  }
   for_chunks(workers, awake.size(), 256,
              [&](size_t lo, size_t hi) { prepare_drives(*this, awake, s, h, lo, hi); });
   LaneRule lane_solve;
@@ -699,9 +781,6 @@ void WorldImpl::solve_group(const std::vector<int>& awake) {
   lane_solve.static_soft = make_softness(2.0 * set.contact_hertz, set.contact_damping_ratio, h);
   LaneRule lane_relax = lane_solve;
   lane_relax.use_bias = false;
-  if (coloured) {
-    colour_contacts(s, &coloured_contacts, workers);
-  }
   auto contact_pass = [&](const BiasRule& r, const LaneRule& lr) {
     return coloured ? solve_coloured(coloured_contacts, s.bodies.data(), lr, workers)
                     : solve_contacts(s, r);
@@ -747,11 +826,11 @@ void WorldImpl::solve_group(const std::vector<int>& awake) {
     }
   }
   store_joint_impulses();
-  if (coloured) unpack_impulses(coloured_contacts, &s, workers);
-  apply_restitution(s, set.restitution_threshold);
+  ColouredContacts* lanes = coloured ? &coloured_contacts : nullptr;
+  apply_restitution(s, lanes, set.restitution_threshold);
   // Each row writes its own contact, each body its own record.
-  for_chunks(workers, s.rows.size(), 256,
-             [&](size_t lo, size_t hi) { store_impulses(*this, s, lo, hi); });
+  for_chunks(workers, s.contacts.size(), 256,
+             [&](size_t lo, size_t hi) { store_impulses(*this, s, lanes, lo, hi); });
   for_chunks(workers, awake.size(), 256,
              [&](size_t lo, size_t hi) { finalize_bodies(*this, awake, s, h, lo, hi); });
   if (workers != nullptr) workers->end_busy();

@@ -58,6 +58,11 @@ struct ContactRow {
   ContactPointRow points[2];
 };
 
+// The solver body slots of a row's bodies.
+struct RowBodies {
+  int ia = 0, ib = 0;
+};
+
 struct ContactRowExtra {
   int contact = -1;
   double restitution = 0.0;
@@ -85,8 +90,11 @@ struct SolverScratch {
   std::vector<SolverBody> bodies;
   std::vector<BodyDrive> drives;  // per awake body (slot k + 1's is drives[k])
   std::vector<int> body_slot;     // body index -> solver slot (0 for bodies not solved)
+  // Soft contacts keep rows and extras only for contacts with restitution; their other rows
+  // live in the coloured lanes (contact_lanes.h).
   std::vector<ContactRow> rows;
   std::vector<ContactRowExtra> extras;
+  std::vector<RowBodies> row_bodies;  // soft contacts: each row's bodies, for the colouring
   std::vector<int> contacts;
   std::vector<int> restitution_rows;  // rows with restitution > 0
   std::vector<int> joints;            // awake joints, by id

@@ -54,16 +54,16 @@ void expect_valid_colouring(const World& w) {
   const WorldImpl& impl = w.impl();
   const ColouredContacts& cc = impl.coloured_contacts;
   const SolverScratch& s = impl.solver_scratch;
-  ASSERT_EQ(cc.lane_of_row.size(), s.rows.size());
+  ASSERT_EQ(cc.lane_of_row.size(), s.row_bodies.size());
   ASSERT_EQ(static_cast<int>(cc.colour_start.size()), cc.colours + 1);
-  // Every row has its own lane, holding its bodies.
+  // Every row has its own lane, holding its bodies (the ones it was coloured by).
   std::set<int> lanes_used(cc.lane_of_row.begin(), cc.lane_of_row.end());
-  EXPECT_EQ(lanes_used.size(), s.rows.size());
-  for (size_t k = 0; k < s.rows.size(); ++k) {
+  EXPECT_EQ(lanes_used.size(), s.row_bodies.size());
+  for (size_t k = 0; k < s.row_bodies.size(); ++k) {
     const int lane = cc.lane_of_row[k];
     const ContactBlock& b = cc.blocks[lane / kBlockLanes];
-    EXPECT_EQ(b.ia[lane % kBlockLanes], s.rows[k].ia);
-    EXPECT_EQ(b.ib[lane % kBlockLanes], s.rows[k].ib);
+    EXPECT_EQ(b.ia[lane % kBlockLanes], s.row_bodies[k].ia);
+    EXPECT_EQ(b.ib[lane % kBlockLanes], s.row_bodies[k].ib);
   }
   expect_each_body_written_once_per_colour(cc.blocks, cc.colour_start, cc.colours, s.bodies);
 }
@@ -73,7 +73,7 @@ TEST(ContactLanes, ColoursNeverShareADynamicBody) {
   for (int i = 0; i < 30; ++i) w.step();
   const ColouredContacts& cc = w.impl().coloured_contacts;
   // 210 boxes, about 2 contacts each: many blocks, no overflow (a box touches at most 6).
-  EXPECT_GT(w.impl().solver_scratch.rows.size(), 300u);
+  EXPECT_GT(w.impl().solver_scratch.row_bodies.size(), 300u);
   EXPECT_EQ(cc.overflow, 0);
   expect_valid_colouring(w);
 }
@@ -83,7 +83,7 @@ TEST(ContactLanes, ABodyWithMoreContactsThanColoursOverflows) {
   for (int i = 0; i < 10; ++i) w.step();
   const ColouredContacts& cc = w.impl().coloured_contacts;
   // The plank touches 40 balls and the ground: 41 contacts, at most kMaxColours coloured.
-  EXPECT_EQ(w.impl().solver_scratch.rows.size(), 41u);
+  EXPECT_EQ(w.impl().solver_scratch.row_bodies.size(), 41u);
   EXPECT_EQ(cc.overflow, 41 - kMaxColours);
   expect_valid_colouring(w);
   // The overflow is solved one by one like any other row: the balls rest on the plank.
@@ -115,7 +115,7 @@ void expect_threads_agree(const SceneDef& scene, int ticks) {
       if (threads == 1 && i == 10) {
         // The scene really is shared out (before it falls asleep): colours of several chunks.
         const ColouredContacts& cc = w.impl().coloured_contacts;
-        EXPECT_GE(w.impl().solver_scratch.rows.size(), 256u);
+        EXPECT_GE(w.impl().solver_scratch.row_bodies.size(), 256u);
         EXPECT_GE(cc.colour_start[1] - cc.colour_start[0], 2 * kBlocksPerChunk);
       }
     }
