@@ -33,6 +33,7 @@ int DynamicTree::allocate_node() {
     // Grows only when every node is in use, so steady-state churn does not allocate.
     index = static_cast<int>(nodes_.size());
     nodes_.emplace_back();
+    user_data_.push_back(0);
   }
   nodes_[index] = Node{};
   nodes_[index].height = 0;
@@ -54,7 +55,7 @@ int DynamicTree::create_proxy(const AABB& fat_aabb, uint64_t user_data, uint64_t
   assert(fat_aabb.lower.x() <= fat_aabb.upper.x() && fat_aabb.lower.y() <= fat_aabb.upper.y());
   const int proxy = allocate_node();
   nodes_[proxy].aabb = fat_aabb;
-  nodes_[proxy].user_data = user_data;
+  user_data_[proxy] = user_data;
   nodes_[proxy].category_bits = category_bits;
   nodes_[proxy].mask_bits = mask_bits;
   insert_leaf(proxy);

@@ -37,7 +37,7 @@ class DynamicTree {
   void set_leaf_filter(int proxy_id, uint64_t category_bits, uint64_t mask_bits);
 
   const AABB& fat_aabb(int proxy_id) const { return nodes_[proxy_id].aabb; }
-  uint64_t user_data(int proxy_id) const { return nodes_[proxy_id].user_data; }
+  uint64_t user_data(int proxy_id) const { return user_data_[proxy_id]; }
 
   // Calls callback(proxy_id) for every leaf whose box overlaps `aabb`; the callback returns
   // false to stop the query.
@@ -65,17 +65,19 @@ class DynamicTree {
   bool validate() const;
 
  private:
-  struct Node {
+  // One cache line: what a query reads of each node it visits. A leaf's user data is kept
+  // apart (user_data_), read only for the leaves a query reports.
+  struct alignas(64) Node {
     AABB aabb;
-    uint64_t user_data = 0;
+    // A leaf's filter bits; an internal node's, the union of its leaves'.
+    uint64_t category_bits = 0, mask_bits = 0;
     int parent_or_next = kNullNode;  // parent, or the next free node while on the free list
     int child1 = kNullNode;
     int child2 = kNullNode;
     int height = -1;  // leaf = 0, free = -1
-    // A leaf's filter bits; an internal node's, the union of its leaves'.
-    uint64_t category_bits = 0, mask_bits = 0;
     bool is_leaf() const { return child1 == kNullNode; }
   };
+  static_assert(sizeof(Node) == 64);
 
   template <bool kFiltered, typename Callback>
   void walk(const AABB& aabb, uint64_t category_bits, uint64_t mask_bits,
@@ -109,6 +111,7 @@ class DynamicTree {
   int build_range(LeafCentre* leaves, int count);
 
   std::vector<Node> nodes_;
+  std::vector<uint64_t> user_data_;  // per node; meaningful for leaves only
   int root_ = kNullNode;
   int free_list_ = kNullNode;
   int node_count_ = 0;  // nodes in the tree (leaves and internal), not on the free list
