@@ -257,16 +257,16 @@ RowBodies row_bodies(const WorldImpl& w, const SolverScratch& s, const Contact& 
                    body_b.awake ? s.body_slot[c.body_b] : 0};
 }
 
-// Row k (contact s.contacts[k]): depends only on its own contact and bodies. The extra's
-// approach speeds only for a contact with restitution (nothing else reads them).
+// Row k (contact s.contacts[k], its bodies in solver slots `slots`): depends only on its own
+// contact and bodies. The extra's approach speeds only for a contact with restitution (nothing
+// else reads them).
 void prepare_row(const WorldImpl& w, const SolverScratch& s, const RowRule& r, size_t k,
-                 ContactRow& row, ContactRowExtra& extra) {
+                 const RowBodies& slots, ContactRow& row, ContactRowExtra& extra) {
   const Contact& c = w.contacts[s.contacts[k]];
   const Body& body_a = w.bodies[c.body_a];
   const Body& body_b = w.bodies[c.body_b];
   extra.contact = s.contacts[k];
   extra.restitution = c.restitution;
-  const RowBodies slots = row_bodies(w, s, c);
   row.ia = slots.ia;
   row.ib = slots.ib;
   row.nx = c.manifold.normal.x();
@@ -346,7 +346,10 @@ void prepare(WorldImpl& w, SolverScratch& s, double h, WorkerPool* pool) {
   s.extras.resize(n_rows);
   const RowRule r = row_rule(w, h);
   for_chunks(pool, n_rows, 256, [&](size_t lo, size_t hi) {
-    for (size_t k = lo; k < hi; ++k) prepare_row(w, s, r, k, s.rows[k], s.extras[k]);
+    for (size_t k = lo; k < hi; ++k) {
+      const RowBodies slots = row_bodies(w, s, w.contacts[s.contacts[k]]);
+      prepare_row(w, s, r, k, slots, s.rows[k], s.extras[k]);
+    }
   });
   s.restitution_rows.clear();
   for (size_t k = 0; k < n_rows; ++k) {
@@ -377,7 +380,7 @@ void prepare_coloured(WorldImpl& w, SolverScratch& s, double h, ColouredContacts
     for (size_t k = lo; k < hi; ++k) {
       const bool kept = w.contacts[s.contacts[k]].restitution != 0.0;
       ContactRow& row = kept ? s.rows[k] : scratch_row;
-      prepare_row(w, s, r, k, row, kept ? s.extras[k] : scratch_extra);
+      prepare_row(w, s, r, k, s.row_bodies[k], row, kept ? s.extras[k] : scratch_extra);
       pack_row(s.bodies.data(), row, k, cc);
     }
   });
