@@ -9,11 +9,11 @@ namespace fulcrum::lanes {
 
 double solve_x4(ContactBlock* blocks, int first, int end, SolverBody* bodies,
                 const LaneRule& rule) {
-  return solve_blocks<F64x4>(blocks, first, end, bodies, rule);
+  return solve_blocks<LanePair<F64x4>>(blocks, first, end, bodies, rule);
 }
 
 void warm_x4(ContactBlock* blocks, int first, int end, SolverBody* bodies) {
-  warm_blocks<F64x4>(blocks, first, end, bodies);
+  warm_blocks<LanePair<F64x4>>(blocks, first, end, bodies);
 }
 
 void separation_x4(ContactBlock* blocks, int first, int end, const SolverBody* bodies) {
