@@ -136,15 +136,26 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
   if (first == 0 && 2 * end >= static_cast<size_t>(body_count)) {
     // Most bodies awake: one pass over the contact pool, in id order, is cheaper than walking
     // every awake body's list and sorting, and finds the same contacts (those with an awake
-    // body, the first round's bodies being all the awake ones).
-    for (size_t ci = 0; ci < contacts.size(); ++ci) {
-      Contact& c = contacts[ci];
-      if (!c.alive || c.stamp == step_stamp) continue;
-      if (bodies[c.body_a].awake || bodies[c.body_b].awake) {
-        c.stamp = step_stamp;
-        list.push_back(static_cast<int>(ci));
+    // body, the first round's bodies being all the awake ones). The pool is read in chunks of
+    // ids, on several threads, and their lists joined in chunk order.
+    constexpr size_t kPoolChunk = 2048;
+    const int chunks = static_cast<int>((contacts.size() + kPoolChunk - 1) / kPoolChunk);
+    std::vector<std::vector<int>>& found = scratch_chunk_contacts;
+    if (found.size() < static_cast<size_t>(chunks)) found.resize(chunks);
+    auto gather = [&](int i) {
+      found[i].clear();
+      const size_t hi = std::min(contacts.size(), (i + 1) * kPoolChunk);
+      for (size_t ci = i * kPoolChunk; ci < hi; ++ci) {
+        Contact& c = contacts[ci];
+        if (!c.alive || c.stamp == step_stamp) continue;
+        if (bodies[c.body_a].awake || bodies[c.body_b].awake) {
+          c.stamp = step_stamp;
+          found[i].push_back(static_cast<int>(ci));
+        }
       }
-    }
+    };
+    run_chunks(chunks >= 4 ? pool : nullptr, chunks, gather, true);
+    for (int i = 0; i < chunks; ++i) list.insert(list.end(), found[i].begin(), found[i].end());
   } else {
     for (size_t k = first; k < end; ++k) {
       for (int e = bodies[awake_bodies[k]].contact_list; e != kNullIndex;) {
@@ -163,14 +174,17 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
   // none of which the rest of this function changes for another contact, so they may be
   // computed in any order, on several threads, in chunks fixed by the list.
   const double speculative = settings.speculative_distance;
+  // Each contact's state once refreshed: its boxes parted, or they overlap and the id-order pass
+  // below has work to do, or nothing there changes (kSteady).
+  enum Refreshed : uint8_t { kParted, kOverlap, kSteady };
   std::vector<uint8_t>& overlap = scratch_overlap;
-  overlap.assign(list.size(), 0);
+  overlap.assign(list.size(), kParted);
   auto refresh = [&](size_t k) {
     Contact& c = contacts[list[k]];
     const Shape& sa = shapes[c.shape_a];
     const Shape& sb = shapes[c.shape_b];
     if (!tree_of(sa).fat_aabb(sa.proxy).overlaps(tree_of(sb).fat_aabb(sb.proxy))) return;
-    overlap[k] = 1;
+    overlap[k] = kOverlap;
     const Body& ba = bodies[c.body_a];
     const Body& bb = bodies[c.body_b];
     Manifold old = c.manifold;
@@ -214,6 +228,14 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
       if (recovery && recovering(contacts[list[k]], *recovery)) {
         chunk_recovering[i].push_back(list[k]);
       }
+      // Nothing for the id-order pass: touching as before, and no sleeping body to wake. (That
+      // pass only wakes bodies, so one awake now is still awake when it comes to this contact.)
+      const Contact& c = contacts[list[k]];
+      const bool touching = c.sensor ? overlapping(c.manifold) : c.manifold.count > 0;
+      if (touching == c.touching &&
+          (!touching || c.sensor || (bodies[c.body_a].awake && bodies[c.body_b].awake))) {
+        overlap[k] = kSteady;
+      }
     }
   };
   run_chunks(chunks >= 4 ? pool : nullptr, chunks, chunk, true);
@@ -227,8 +249,9 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
 
   // Then, in id order: boxes that parted destroy their contact; touches wake and report.
   for (size_t k = 0; k < list.size(); ++k) {
+    if (overlap[k] == kSteady) continue;
     const int ci = list[k];
-    if (!overlap[k]) {
+    if (overlap[k] == kParted) {
       destroy_contact(ci, true);
       continue;
     }

@@ -208,7 +208,8 @@ class WorldImpl {
 
   // Scratch reused every step (never part of the state).
   std::vector<int> scratch_contacts;
-  std::vector<uint8_t> scratch_overlap;       // collide: whether each contact's boxes still overlap
+  std::vector<uint8_t> scratch_overlap;                  // collide: each contact's Refreshed state
+  std::vector<std::vector<int>> scratch_chunk_contacts;  // collide: each chunk's gathered ids
   std::vector<double> scratch_chunk_pressed;  // collide: each chunk's largest contact_pressed
   std::vector<std::vector<int>> scratch_chunk_recovering;  // collide: each chunk's, in id order
   std::vector<int> scratch_awake;
