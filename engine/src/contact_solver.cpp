@@ -366,11 +366,18 @@ void prepare_coloured(WorldImpl& w, SolverScratch& s, double h, ColouredContacts
   s.rows.resize(n_rows);
   s.extras.resize(n_rows);
   s.row_bodies.resize(n_rows);
+  s.row_points.resize(n_rows);
+  s.row_bounces.resize(n_rows);
+  for_chunks(pool, n_rows, 256, [&](size_t lo, size_t hi) {
+    for (size_t k = lo; k < hi; ++k) {
+      const Contact& c = w.contacts[s.contacts[k]];
+      s.row_bodies[k] = row_bodies(w, s, c);
+      s.row_bounces[k] = c.restitution != 0.0;
+    }
+  });
   s.restitution_rows.clear();
   for (size_t k = 0; k < n_rows; ++k) {
-    const Contact& c = w.contacts[s.contacts[k]];
-    s.row_bodies[k] = row_bodies(w, s, c);
-    if (c.restitution != 0.0) s.restitution_rows.push_back(static_cast<int>(k));
+    if (s.row_bounces[k]) s.restitution_rows.push_back(static_cast<int>(k));
   }
   colour_contacts(s.row_bodies, s.bodies, cc);
   const RowRule r = row_rule(w, h);
@@ -378,9 +385,10 @@ void prepare_coloured(WorldImpl& w, SolverScratch& s, double h, ColouredContacts
     ContactRow scratch_row;
     ContactRowExtra scratch_extra;
     for (size_t k = lo; k < hi; ++k) {
-      const bool kept = w.contacts[s.contacts[k]].restitution != 0.0;
+      const bool kept = s.row_bounces[k];
       ContactRow& row = kept ? s.rows[k] : scratch_row;
       prepare_row(w, s, r, k, s.row_bodies[k], row, kept ? s.extras[k] : scratch_extra);
+      s.row_points[k] = static_cast<uint8_t>(row.count);
       pack_row(s.bodies.data(), row, k, cc);
     }
   });
@@ -707,7 +715,8 @@ void store_impulses(WorldImpl& w, SolverScratch& s, ColouredContacts* lanes, siz
   const double per_base = static_cast<double>(substeps) / base;
   for (size_t k = first; k < end; ++k) {
     Manifold& m = w.contacts[s.contacts[k]].manifold;
-    for (int i = 0; i < m.count; ++i) {
+    const int count = lanes != nullptr ? s.row_points[k] : m.count;
+    for (int i = 0; i < count; ++i) {
       const PointImpulses acc = impulses_of(s, lanes, k, i);
       m.points[i].normal_impulse = *acc.normal;
       m.points[i].tangent_impulse = *acc.tangent;

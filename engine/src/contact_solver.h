@@ -4,6 +4,7 @@
 // what restitution and the rigid block solver need lives apart in ContactRowExtra.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 namespace fulcrum {
@@ -95,6 +96,10 @@ struct SolverScratch {
   std::vector<ContactRow> rows;
   std::vector<ContactRowExtra> extras;
   std::vector<RowBodies> row_bodies;  // soft contacts: each row's bodies, for the colouring
+  // Soft contacts: each row's manifold points, noted as it is prepared, so that storing the
+  // impulses need not read the contact before writing it.
+  std::vector<uint8_t> row_points;
+  std::vector<uint8_t> row_bounces;  // soft contacts: whether each row's contact has restitution
   std::vector<int> contacts;
   std::vector<int> restitution_rows;  // rows with restitution > 0
   std::vector<int> joints;            // awake joints, by id
