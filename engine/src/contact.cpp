@@ -48,6 +48,12 @@ bool overlapping(const Manifold& m) {
   return false;
 }
 
+// Whether a contact touches by its fresh manifold: a sensor when its shapes overlap, any other
+// contact when its manifold has a point (speculative points included).
+bool touching_now(const Contact& c) {
+  return c.sensor ? overlapping(c.manifold) : c.manifold.count > 0;
+}
+
 }  // namespace
 
 bool WorldImpl::has_contact(int sa, int sb) const {
@@ -231,7 +237,7 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
       // Nothing for the id-order pass: touching as before, and no sleeping body to wake. (That
       // pass only wakes bodies, so one awake now is still awake when it comes to this contact.)
       const Contact& c = contacts[list[k]];
-      const bool touching = c.sensor ? overlapping(c.manifold) : c.manifold.count > 0;
+      const bool touching = touching_now(c);
       if (touching == c.touching &&
           (!touching || c.sensor || (bodies[c.body_a].awake && bodies[c.body_b].awake))) {
         overlap[k] = kSteady;
@@ -258,7 +264,7 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
     Contact& c = contacts[ci];
     const Shape& sa = shapes[c.shape_a];
     bool was_touching = c.touching;
-    c.touching = c.sensor ? overlapping(c.manifold) : c.manifold.count > 0;
+    c.touching = touching_now(c);
     // An awake body touching a sleeping one wakes it (and what rests on it).
     if (c.touching && !c.sensor) {
       if (!bodies[c.body_a].awake) wake_island(c.body_a);
