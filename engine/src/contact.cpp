@@ -56,6 +56,12 @@ bool touching_now(const Contact& c) {
 
 }  // namespace
 
+const std::vector<uint8_t>& WorldImpl::awake_flags() {
+  scratch_awake_flag.assign(bodies.size(), 0);
+  for (int bi : awake_bodies) scratch_awake_flag[bi] = 1;
+  return scratch_awake_flag;
+}
+
 bool WorldImpl::has_contact(int sa, int sb) const {
   return contact_pairs.contains(pair_key(sa, sb));
 }
@@ -125,12 +131,17 @@ void WorldImpl::collide() {
   }
   // Bodies woken by a touch in one round bring their own contacts into the next round, until
   // no more wake.
+  touching_contacts.clear();
   size_t first_new = 0;
+  int rounds = 0;
   while (first_new < awake_bodies.size()) {
     size_t end = awake_bodies.size();
     collide_round(first_new, end, press, recovery);
     first_new = end;
+    ++rounds;
   }
+  // Each round lists its own contacts in id order.
+  if (rounds > 1) std::sort(touching_contacts.begin(), touching_contacts.end());
 }
 
 void WorldImpl::collide_round(size_t first, size_t end, const std::optional<ContactPress>& press,
@@ -148,13 +159,14 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
     const int chunks = static_cast<int>((contacts.size() + kPoolChunk - 1) / kPoolChunk);
     std::vector<std::vector<int>>& found = scratch_chunk_contacts;
     if (found.size() < static_cast<size_t>(chunks)) found.resize(chunks);
+    const std::vector<uint8_t>& awake_flag = awake_flags();
     auto gather = [&](int i) {
       found[i].clear();
       const size_t hi = std::min(contacts.size(), (i + 1) * kPoolChunk);
       for (size_t ci = i * kPoolChunk; ci < hi; ++ci) {
         Contact& c = contacts[ci];
         if (!c.alive || c.stamp == step_stamp) continue;
-        if (bodies[c.body_a].awake || bodies[c.body_b].awake) {
+        if (awake_flag[c.body_a] || awake_flag[c.body_b]) {
           c.stamp = step_stamp;
           found[i].push_back(static_cast<int>(ci));
         }
@@ -181,8 +193,9 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
   // computed in any order, on several threads, in chunks fixed by the list.
   const double speculative = settings.speculative_distance;
   // Each contact's state once refreshed: its boxes parted, or they overlap and the id-order pass
-  // below has work to do, or nothing there changes (kSteady).
-  enum Refreshed : uint8_t { kParted, kOverlap, kSteady };
+  // below has work to do, or nothing there changes (kSteady; kSteadyTouching when it is a
+  // touching contact the solver wants).
+  enum Refreshed : uint8_t { kParted, kOverlap, kSteady, kSteadyTouching };
   std::vector<uint8_t>& overlap = scratch_overlap;
   overlap.assign(list.size(), kParted);
   auto refresh = [&](size_t k) {
@@ -240,7 +253,7 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
       const bool touching = touching_now(c);
       if (touching == c.touching &&
           (!touching || c.sensor || (bodies[c.body_a].awake && bodies[c.body_b].awake))) {
-        overlap[k] = kSteady;
+        overlap[k] = touching && !c.sensor ? kSteadyTouching : kSteady;
       }
     }
   };
@@ -255,8 +268,9 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
 
   // Then, in id order: boxes that parted destroy their contact; touches wake and report.
   for (size_t k = 0; k < list.size(); ++k) {
-    if (overlap[k] == kSteady) continue;
     const int ci = list[k];
+    if (overlap[k] == kSteadyTouching) touching_contacts.push_back(ci);
+    if (overlap[k] >= kSteady) continue;
     if (overlap[k] == kParted) {
       destroy_contact(ci, true);
       continue;
@@ -267,6 +281,7 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
     c.touching = touching_now(c);
     // An awake body touching a sleeping one wakes it (and what rests on it).
     if (c.touching && !c.sensor) {
+      touching_contacts.push_back(ci);
       if (!bodies[c.body_a].awake) wake_island(c.body_a);
       if (!bodies[c.body_b].awake) wake_island(c.body_b);
     }

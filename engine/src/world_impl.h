@@ -176,7 +176,8 @@ class WorldImpl {
   void destroy_contact(int contact, bool report_end);
   bool has_contact(int shape_a, int shape_b) const;
   // Refreshes the manifolds of contacts with an awake body; destroys contacts whose boxes
-  // stopped overlapping; reports begin/end events; wakes bodies touched by awake ones.
+  // stopped overlapping; reports begin/end events; wakes bodies touched by awake ones. Lists
+  // the touching contacts it leaves (touching_contacts).
   void collide();
   // awake_bodies[first, end); with `press`, each contact's load figures too (press_contact),
   // and with `recovery`, the recovering contacts (budget.recovering).
@@ -206,10 +207,19 @@ class WorldImpl {
   // reference calls it on a copy. World::step never calls it.
   void prepare_reference_tick();
 
+  // One byte per body, 1 for the bodies in awake_bodies: what a pass over the contact pool
+  // reads instead of the bodies themselves, which are large and cold. Filled anew each call.
+  const std::vector<uint8_t>& awake_flags();
+
   // Scratch reused every step (never part of the state).
   std::vector<int> scratch_contacts;
   std::vector<uint8_t> scratch_overlap;                  // collide: each contact's Refreshed state
   std::vector<std::vector<int>> scratch_chunk_contacts;  // collide: each chunk's gathered ids
+  std::vector<uint8_t> scratch_awake_flag;               // awake_flags()
+  // The last collide's touching contacts that are not sensors, in id order: every contact with
+  // an awake body that touches, as the step's solver wants them (nothing between collide and
+  // the solver changes contacts or puts a body to sleep).
+  std::vector<int> touching_contacts;
   std::vector<double> scratch_chunk_pressed;  // collide: each chunk's largest contact_pressed
   std::vector<std::vector<int>> scratch_chunk_recovering;  // collide: each chunk's, in id order
   std::vector<int> scratch_awake;

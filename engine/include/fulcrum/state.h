@@ -149,12 +149,12 @@ struct Contact {
   bool alive = false;
   bool touching = false;
   bool sensor = false;
+  uint32_t stamp = 0;  // the step that last collected it (dedupe while gathering)
   int shape_a = kNullIndex, shape_b = kNullIndex;  // geometry_type(a) <= geometry_type(b)
   int body_a = kNullIndex, body_b = kNullIndex;
   double friction = 0.0, restitution = 0.0;  // mixed once at creation
   Manifold manifold;
   ContactEdge edges[2];
-  uint32_t stamp = 0;  // the step that last collected it (dedupe while gathering)
 };
 
 // A whole world: definitions and settings, dynamic state and the solver's warm-start cache
