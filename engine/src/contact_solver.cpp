@@ -650,10 +650,22 @@ void integrate_positions(SolverScratch& s, double h, double max_speed, size_t fi
     double turn = h * (sb.w + sb.pw);
     sb.da += turn;
     if (turn != 0.0) {
-      SinCos sc = det_sincos(turn);
-      Rot q = mul(Rot{sc.cos, sc.sin}, Rot{sb.qc, sb.qs}).normalized();
-      sb.qc = q.c;
-      sb.qs = q.s;
+      // mul(Rot{cos, sin}, q).normalized(), written out component by component (the same
+      // operations in the same order): reading the returned sine and cosine back from memory as
+      // one vector stalls on store forwarding, on a loop every body runs every substep.
+      const SinCos sc = det_sincos(turn);
+      double tc = sc.cos, ts = sc.sin;
+#if defined(__x86_64__)
+      // Each half in its own register: GCC would otherwise reload both through the stack.
+      asm("" : "+x"(tc), "+x"(ts));
+#endif
+      const double qc = sb.qc, qs = sb.qs;
+      const double mc = tc * qc - ts * qs;
+      const double ms = ts * qc + tc * qs;
+      const double mag = std::sqrt(mc * mc + ms * ms);
+      const double inv = mag > 0.0 ? 1.0 / mag : 0.0;
+      sb.qc = mc * inv;
+      sb.qs = ms * inv;
     }
     sb.pvx = sb.pvy = sb.pw = 0.0;
   }
