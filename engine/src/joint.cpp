@@ -165,16 +165,27 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
   SolverScratch& s = solver_scratch;
   // Awake joints in id order, each once (from its lower-indexed awake body).
   s.joints.clear();
-  for (int bi : awake) {
-    for (int ji : bodies[bi].joints) {
+  if (awake.size() == awake_bodies.size() && 2 * awake.size() >= static_cast<size_t>(body_count)) {
+    // All awake bodies (not one budget group), most bodies in all: one pass over the joint pool
+    // finds the same joints, already in id order.
+    for (size_t ji = 0; ji < joints.size(); ++ji) {
       const Joint& j = joints[ji];
-      int other = j.body_a == bi ? j.body_b : j.body_a;
-      if (bodies[other].awake && other < bi) continue;
-      s.joints.push_back(ji);
+      if (j.alive && (bodies[j.body_a].awake || bodies[j.body_b].awake)) {
+        s.joints.push_back(static_cast<int>(ji));
+      }
     }
+  } else {
+    for (int bi : awake) {
+      for (int ji : bodies[bi].joints) {
+        const Joint& j = joints[ji];
+        int other = j.body_a == bi ? j.body_b : j.body_a;
+        if (bodies[other].awake && other < bi) continue;
+        s.joints.push_back(ji);
+      }
+    }
+    std::sort(s.joints.begin(), s.joints.end());
+    s.joints.erase(std::unique(s.joints.begin(), s.joints.end()), s.joints.end());
   }
-  std::sort(s.joints.begin(), s.joints.end());
-  s.joints.erase(std::unique(s.joints.begin(), s.joints.end()), s.joints.end());
 
   const Softness soft = make_softness(settings.joint_hertz, settings.joint_damping_ratio, h);
   s.joint_rows.resize(s.joints.size());
