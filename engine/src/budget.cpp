@@ -83,6 +83,34 @@ int substeps_for(const WorldSettings& s, double ratio) {
   return need >= s.max_substeps ? s.max_substeps : std::max(s.substeps, static_cast<int>(need));
 }
 
+// Calls fn(joint, k, other) for each live joint and each of its ends that is an awake dynamic
+// body: k that body's position in `awake` (w.solver_scratch.body_slot is set), other the body at
+// the joint's other end. Its callers keep maxima, flags and components, the same in any order:
+// with most bodies awake it walks the joint pool once, reading each joint once, and otherwise
+// the awake bodies' joint lists, where a joint between two awake bodies comes up from both.
+template <class Fn>
+void each_awake_joint_end(const WorldImpl& w, const std::vector<int>& awake, Fn fn) {
+  const std::vector<int>& slot = w.solver_scratch.body_slot;
+  if (2 * awake.size() >= static_cast<size_t>(w.body_count)) {
+    for (const Joint& j : w.joints) {
+      if (!j.alive) continue;
+      const Body& a = w.bodies[j.body_a];
+      const Body& b = w.bodies[j.body_b];
+      if (a.awake && a.is_dynamic()) fn(j, slot[j.body_a] - 1, j.body_b);
+      if (b.awake && b.is_dynamic()) fn(j, slot[j.body_b] - 1, j.body_a);
+    }
+    return;
+  }
+  for (size_t k = 0; k < awake.size(); ++k) {
+    const int bi = awake[k];
+    if (!w.bodies[bi].is_dynamic()) continue;
+    for (int ji : w.bodies[bi].joints) {
+      const Joint& j = w.joints[ji];
+      fn(j, static_cast<int>(k), j.body_a == bi ? j.body_b : j.body_a);
+    }
+  }
+}
+
 }  // namespace
 
 int budget_substeps(const WorldSettings& s, double give) {
@@ -210,39 +238,14 @@ bool WorldImpl::plan_joint_needs(const std::vector<int>& awake, double g) {
   weakest.assign(n, 0.0);
   bool any = false;
   // Each joint that is not a spring: its awake dynamic bodies' weakest pair, and both joined
-  // when both are awake and dynamic. (A maximum of sums, and components whose root is their
-  // lowest position: the same in any order.)
-  if (2 * static_cast<size_t>(n) >= static_cast<size_t>(body_count)) {
-    // Most bodies awake: one pass over the joint pool reads each joint once, where walking the
-    // bodies' lists reads it from both ends.
-    for (const Joint& j : joints) {
-      if (!j.alive || j.type == JointType::kSpring) continue;
-      const Body& a = bodies[j.body_a];
-      const Body& b = bodies[j.body_b];
-      const bool dyn_a = a.awake && a.is_dynamic();
-      const bool dyn_b = b.awake && b.is_dynamic();
-      if (!dyn_a && !dyn_b) continue;
-      any = true;
-      const int ka = slot[j.body_a] - 1, kb = slot[j.body_b] - 1;
-      if (dyn_a) weakest[ka] = std::max(weakest[ka], a.inv_mass + b.inv_mass);
-      if (dyn_b) weakest[kb] = std::max(weakest[kb], b.inv_mass + a.inv_mass);
-      if (dyn_a && dyn_b) unite(parent, ka, kb);
-    }
-  } else {
-    for (int k = 0; k < n; ++k) {
-      const int bi = awake[k];
-      if (!bodies[bi].is_dynamic()) continue;
-      for (int ji : bodies[bi].joints) {
-        const Joint& j = joints[ji];
-        if (j.type == JointType::kSpring) continue;
-        any = true;
-        const int other = j.body_a == bi ? j.body_b : j.body_a;
-        const Body& o = bodies[other];
-        weakest[k] = std::max(weakest[k], bodies[bi].inv_mass + o.inv_mass);
-        if (o.is_dynamic() && o.awake) unite(parent, k, slot[other] - 1);
-      }
-    }
-  }
+  // when both are awake and dynamic.
+  each_awake_joint_end(*this, awake, [&](const Joint& j, int k, int other) {
+    if (j.type == JointType::kSpring) return;
+    any = true;
+    const Body& o = bodies[other];
+    weakest[k] = std::max(weakest[k], bodies[awake[k]].inv_mass + o.inv_mass);
+    if (o.is_dynamic() && o.awake) unite(parent, k, slot[other] - 1);
+  });
   if (!any || g == 0.0) return false;
   mass.assign(n, 0.0);
   for (int k = 0; k < n; ++k) {
@@ -345,31 +348,12 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   std::vector<int>& island_relax = budget.island_relax;
   island_relax.assign(n, settings.relax_iterations);
   // A dynamic body jointed to a moving kinematic body, or driven against a body of infinite
-  // mass. Walked as plan_joint_needs walks the joints.
-  auto pinned_to_mover = [&](const Joint& j, const Body& self, int self_index, const Body& o) {
+  // mass.
+  each_awake_joint_end(*this, awake, [&](const Joint& j, int k, int other) {
+    const Body& o = bodies[other];
     const bool driven = j.enable_motor || j.type == JointType::kMotor;
-    if (self.awake && self.is_dynamic() && !o.is_dynamic() && (o.awake || driven)) {
-      island_need[slot[self_index] - 1] = -1;
-    }
-  };
-  if (2 * static_cast<size_t>(n) >= static_cast<size_t>(body_count)) {
-    for (const Joint& j : joints) {
-      if (!j.alive) continue;
-      const Body& a = bodies[j.body_a];
-      const Body& b = bodies[j.body_b];
-      pinned_to_mover(j, a, j.body_a, b);
-      pinned_to_mover(j, b, j.body_b, a);
-    }
-  } else {
-    for (int k = 0; k < n; ++k) {
-      const int bi = awake[k];
-      for (int ji : bodies[bi].joints) {
-        const Joint& j = joints[ji];
-        const int other = j.body_a == bi ? j.body_b : j.body_a;
-        pinned_to_mover(j, bodies[bi], bi, bodies[other]);
-      }
-    }
-  }
+    if (!o.is_dynamic() && (o.awake || driven)) island_need[k] = -1;
+  });
   // Touching contacts, in one pass over the contact pool (in memory order: far cheaper than
   // walking every body's list, and the islands are the same whatever the order).
   for (const Contact& c : contacts) {
