@@ -104,8 +104,10 @@ std::vector<ShapeId> World::overlap_point(const Vec2& point, const QueryFilter& 
 
 World::Budgets World::budgets() const {
   const WorldImpl& w = *impl_;
-  return Budgets{w.budget.islands, std::max(w.budget.max_substeps, w.settings.substeps),
-                 std::max(w.budget.max_relax, w.settings.relax_iterations)};
+  return Budgets{
+      w.budget.islands, std::max(w.budget.max_substeps, w.settings.substeps),
+      std::max(w.budget.max_relax, w.settings.relax_iterations),
+      w.budget.max_iterations > 0 ? w.budget.max_iterations : w.settings.velocity_iterations};
 }
 
 WorldMetrics World::metrics() const {
@@ -118,6 +120,7 @@ WorldMetrics World::metrics() const {
   m.budget_islands = budget.islands;
   m.max_substeps = budget.max_substeps;
   m.max_relax_iterations = budget.max_relax_iterations;
+  m.max_velocity_iterations = budget.max_velocity_iterations;
   double penetration_sum = 0.0;
   int penetrating = 0;
   for (const Contact& c : w.contacts) {

@@ -45,6 +45,8 @@ Status validate_settings(const WorldSettings& s) {
       check_above("settings.joint_give_tolerance", s.joint_give_tolerance, 0.0));
   FULCRUM_RETURN_IF_ERROR(
       check_above("settings.contact_give_tolerance", s.contact_give_tolerance, 0.0));
+  FULCRUM_RETURN_IF_ERROR(
+      check_in_range("settings.one_pass_give_tolerance", s.one_pass_give_tolerance, 0.0, 1e6));
   if (s.velocity_iterations < 1 || s.velocity_iterations > 1000) {
     return invalid_argument("settings.velocity_iterations: must be in [1, 1000] (got " +
                             std::to_string(s.velocity_iterations) + ")");

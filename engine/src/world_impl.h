@@ -196,6 +196,9 @@ class WorldImpl {
   // Splits the awake bodies into budget groups (budget.cpp); false when all keep the
   // world's substeps.
   bool plan_budgets(const std::vector<int>& awake_sorted);
+  // Whether a tick no island runs a budget of its own solves one velocity pass per substep
+  // (WorldSettings::one_pass_give_tolerance; budget.cpp).
+  bool one_pass_tick(const std::vector<int>& awake_sorted) const;
   // plan_budgets' joint part: joins the joint components in scratch_parent and, unless
   // `gravity` is 0 (joint budgets off), sets each component root's need in budget.need; true
   // when one needs more than the world's substeps.
@@ -227,12 +230,14 @@ class WorldImpl {
   struct BudgetGroup {
     int substeps = 0;
     int relax = 0;            // relax passes per substep
+    int iterations = 0;       // velocity passes per substep
     std::vector<int> bodies;  // in id order
   };
   struct Budget {
-    int islands = 0;       // islands given more substeps or relax passes than the world's
-    int max_substeps = 0;  // the most substeps any island ran this tick
-    int max_relax = 0;     // the most relax passes per substep any island ran this tick
+    int islands = 0;         // islands given more substeps or relax passes than the world's
+    int max_substeps = 0;    // the most substeps any island ran this tick
+    int max_relax = 0;       // the most relax passes per substep any island ran this tick
+    int max_iterations = 0;  // the most velocity passes per substep any island ran this tick
     std::vector<BudgetGroup> groups;
     std::vector<double> mass, weakest;   // per joint component root, then island weights
     std::vector<double> pressed, reach;  // per body: its contacts' worst (budget.cpp)
@@ -240,6 +245,7 @@ class WorldImpl {
     std::vector<int> recovering;         // this step's recovering contacts, in id order
     std::vector<int> need, island_need;
     std::vector<int> relax_need, island_relax;  // per body, then per island root
+    std::vector<uint8_t> island_passes;  // per island root: 1 keeps the world's velocity passes
     // The world's substeps while a group is solved with its own: contact impulses are kept
     // between ticks per substep of this length, whatever the island's budget (budget.cpp).
     int base_substeps = 0;
@@ -282,5 +288,8 @@ double geometry_thickness(const Geometry& geometry);
 // The velocity iterations per substep of an island run with `budget` substeps instead of the
 // world's `substeps` (`iterations` each): iterations * substeps / budget, at least 1.
 int budget_iterations(int iterations, int substeps, int budget);
+// Whether the settings let islands run one velocity pass per substep
+// (WorldSettings::one_pass_give_tolerance; budget.cpp).
+bool one_pass_rule(const WorldSettings& settings);
 
 }  // namespace fulcrum

@@ -180,6 +180,9 @@ Status settings_from_proto(const v1::WorldSettings& p, const std::string& path, 
   CONVERT_RETURN_IF_ERROR(read_opt(join(path, "contact_give_tolerance"),
                                    p.has_contact_give_tolerance(), p.contact_give_tolerance(),
                                    Range::kPositive, &s->contact_give_tolerance));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "one_pass_give_tolerance"),
+                                   p.has_one_pass_give_tolerance(), p.one_pass_give_tolerance(),
+                                   Range::kNonNegative, &s->one_pass_give_tolerance));
   CONVERT_RETURN_IF_ERROR(read_opt(join(path, "contact_damping_ratio"),
                                    p.has_contact_damping_ratio(), p.contact_damping_ratio(),
                                    Range::kNonNegative, &s->contact_damping_ratio));
@@ -917,6 +920,7 @@ void settings_to_proto(const WorldSettings& s, v1::WorldSettings* out) {
   out->set_max_substeps(s.max_substeps);
   out->set_joint_give_tolerance(s.joint_give_tolerance);
   out->set_contact_give_tolerance(s.contact_give_tolerance);
+  out->set_one_pass_give_tolerance(s.one_pass_give_tolerance);
   out->set_position_iterations(s.position_iterations);
   out->set_split_impulses(s.split_impulses);
   out->set_baumgarte(s.baumgarte);

@@ -109,6 +109,8 @@ std::string diff_settings(const WorldSettings& a, const WorldSettings& b) {
       diff_double(p + ".joint_give_tolerance", a.joint_give_tolerance, b.joint_give_tolerance));
   RETURN_IF_DIFF(diff_double(p + ".contact_give_tolerance", a.contact_give_tolerance,
                              b.contact_give_tolerance));
+  RETURN_IF_DIFF(diff_double(p + ".one_pass_give_tolerance", a.one_pass_give_tolerance,
+                             b.one_pass_give_tolerance));
   RETURN_IF_DIFF(
       diff_value(p + ".position_iterations", a.position_iterations, b.position_iterations));
   RETURN_IF_DIFF(diff_value(p + ".split_impulses", a.split_impulses, b.split_impulses));
@@ -244,6 +246,7 @@ SceneDef AwkwardScene() {
   s.max_substeps = 9;
   s.joint_give_tolerance = 0.1 + 0.2;  // not a short decimal
   s.contact_give_tolerance = 0.7 / 3.0;
+  s.one_pass_give_tolerance = 0.0;
   s.position_iterations = 0;
   s.split_impulses = true;
   s.baumgarte = 1.0 / 3.0;
@@ -360,7 +363,7 @@ SceneDef AwkwardScene() {
 // scene.proto, scene_convert.cpp (both directions) and the comparisons above, then these
 // numbers (x86-64 sizes).
 TEST(SceneSchema, EngineDefinitionStructsAreCovered) {
-  EXPECT_EQ(sizeof(WorldSettings), 208u);
+  EXPECT_EQ(sizeof(WorldSettings), 224u);
   EXPECT_EQ(sizeof(BodyDef), 160u);
   EXPECT_EQ(sizeof(AttractorDef), 64u);
   EXPECT_EQ(sizeof(ShapeDef), 368u);

@@ -77,10 +77,11 @@ struct WorldMetrics {
   double max_joint_error = 0.0;         // largest JointState::linear_error over all joints, m
   // Budgets (WorldSettings::max_substeps): at the last tick, how many islands ran more
   // substeps or relax passes than the world's, the most substeps any island ran, and the most
-  // relax passes per substep.
+  // relax passes per substep, and the most velocity passes per substep (1 on a one-pass tick).
   int budget_islands = 0;
   int max_substeps = 0;
   int max_relax_iterations = 0;
+  int max_velocity_iterations = 0;
 };
 
 struct QueryFilter {
@@ -215,6 +216,9 @@ class World {
     int islands = 0;       // islands that ran more substeps or relax passes than the world's
     int max_substeps = 0;  // the most substeps any island ran
     int max_relax_iterations = 0;  // the most relax passes per substep any island ran
+    // The most velocity passes per substep any island ran (1 on a one-pass tick,
+    // WorldSettings::one_pass_give_tolerance).
+    int max_velocity_iterations = 0;
   };
   Budgets budgets() const;
 
