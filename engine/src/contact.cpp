@@ -122,12 +122,14 @@ void WorldImpl::destroy_body_contacts(int bi) {
 
 void WorldImpl::collide() {
   budget.most_pressed = 0.0;
+  budget.unsettled = false;
   budget.recovering.clear();
   const std::optional<ContactPress> press = contact_press();
   const std::optional<RecoveryRule> recovery = recovery_rule();
   if (press) {
     contact_pressed.resize(contacts.size(), 0.0);
     contact_reach.resize(contacts.size(), 0.0);
+    contact_unsettled.resize(contacts.size(), 0);
   }
   // Bodies woken by a touch in one round bring their own contacts into the next round, until
   // no more wake.
@@ -230,6 +232,8 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
   // chunk's largest (a maximum, the same in any order).
   std::vector<double>& chunk_pressed = scratch_chunk_pressed;
   chunk_pressed.assign(press ? chunks : 0, 0.0);
+  std::vector<uint8_t>& chunk_unsettled = scratch_chunk_unsettled;
+  chunk_unsettled.assign(press ? chunks : 0, 0);
   // With recovery budgets on, each chunk's recovering contacts (budget.cpp), gathered in id
   // order.
   std::vector<std::vector<int>>& chunk_recovering = scratch_chunk_recovering;
@@ -243,7 +247,10 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
     for (size_t k = lo; k < hi; ++k) {
       refresh(k);
       if (!overlap[k]) continue;
-      if (press) chunk_pressed[i] = std::max(chunk_pressed[i], press_contact(list[k], *press));
+      if (press) {
+        chunk_pressed[i] = std::max(chunk_pressed[i], press_contact(list[k], *press));
+        chunk_unsettled[i] = chunk_unsettled[i] | contact_unsettled[list[k]];
+      }
       if (recovery && recovering(contacts[list[k]], *recovery)) {
         chunk_recovering[i].push_back(list[k]);
       }
@@ -259,6 +266,7 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
   };
   run_chunks(chunks >= 4 ? pool : nullptr, chunks, chunk, true);
   for (double p : chunk_pressed) budget.most_pressed = std::max(budget.most_pressed, p);
+  for (uint8_t u : chunk_unsettled) budget.unsettled = budget.unsettled || u != 0;
   if (recovery) {
     for (int i = 0; i < chunks; ++i) {
       budget.recovering.insert(budget.recovering.end(), chunk_recovering[i].begin(),

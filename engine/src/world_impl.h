@@ -84,6 +84,9 @@ class WorldImpl {
   // collide refreshes each contact of the awake bodies: the worst point's predicted compression
   // over the thinner shape's thickness, and the same per newton of load. Scratch, not state.
   std::vector<double> contact_pressed, contact_reach;
+  // Per contact id: 1 when its load is not known (a body faster than rest, or a point new this
+  // tick), so that its island keeps the world's velocity passes (budget.cpp).
+  std::vector<uint8_t> contact_unsettled;
   // The constants press_contact needs, or none when contact budgets are off.
   std::optional<ContactPress> contact_press() const;
   double press_contact(int contact, const ContactPress& press);
@@ -223,7 +226,8 @@ class WorldImpl {
   // an awake body that touches, as the step's solver wants them (nothing between collide and
   // the solver changes contacts or puts a body to sleep).
   std::vector<int> touching_contacts;
-  std::vector<double> scratch_chunk_pressed;  // collide: each chunk's largest contact_pressed
+  std::vector<double> scratch_chunk_pressed;     // collide: each chunk's largest contact_pressed
+  std::vector<uint8_t> scratch_chunk_unsettled;  // collide: whether a chunk has one unsettled
   std::vector<std::vector<int>> scratch_chunk_recovering;  // collide: each chunk's, in id order
   std::vector<int> scratch_awake;
   SolverScratch solver_scratch;
@@ -239,10 +243,12 @@ class WorldImpl {
     int max_relax = 0;       // the most relax passes per substep any island ran this tick
     int max_iterations = 0;  // the most velocity passes per substep any island ran this tick
     std::vector<BudgetGroup> groups;
-    std::vector<double> mass, weakest;   // per joint component root, then island weights
-    std::vector<double> pressed, reach;  // per body: its contacts' worst (budget.cpp)
-    double most_pressed = 0.0;           // the largest contact_pressed of this step
-    std::vector<int> recovering;         // this step's recovering contacts, in id order
+    std::vector<double> mass, weakest;    // per joint component root, then island weights
+    std::vector<double> pressed, reach;   // per body: its contacts' worst (budget.cpp)
+    double most_pressed = 0.0;            // the largest contact_pressed of this step
+    bool unsettled = false;               // some contact_unsettled of this step is set
+    std::vector<uint8_t> body_unsettled;  // per body: one of its touching contacts is unsettled
+    std::vector<int> recovering;          // this step's recovering contacts, in id order
     std::vector<int> need, island_need;
     std::vector<int> relax_need, island_relax;  // per body, then per island root
     std::vector<uint8_t> island_passes;  // per island root: 1 keeps the world's velocity passes

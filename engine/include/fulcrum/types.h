@@ -147,10 +147,11 @@ struct WorldSettings {
   int max_substeps = 16;                // >= 1
   double joint_give_tolerance = 0.008;  // m, > 0
   double contact_give_tolerance = 0.5;  // fraction of the thinner shape's thickness, > 0
-  // A tick in which no resting contact would be pressed in by more than
-  // one_pass_give_tolerance of the thinner shape's thickness, no joint is awake and no overlap
-  // is recovering runs one velocity pass per substep instead of velocity_iterations (budgets
-  // must be on; 0: never).
+  // An island whose resting contacts would all be pressed in by at most
+  // one_pass_give_tolerance of the thinner shape's thickness runs one velocity pass per
+  // substep instead of velocity_iterations, unless it holds a joint, a new contact or a body
+  // faster than rest, recovers or touches a kinematic body (budgets and gravity must be on;
+  // 0: never; budget.cpp).
   double one_pass_give_tolerance = 0.002;  // fraction of the thinner shape's thickness, >= 0
   bool warm_starting = true;               // start each substep from the last one's impulses
   bool block_solver = true;                // rigid mode: two-point normal rows solved together
