@@ -378,7 +378,7 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   // contact is within one_pass_give_tolerance. (A tick with no budget to plan makes the test
   // for the whole world from the largest, in solve.)
   const bool one_pass = one_pass_rule(settings);
-  if (one_pass && !walked && contact_budgets &&
+  if (one_pass && !walked &&
       (budget.most_pressed > settings.one_pass_give_tolerance || budget.unsettled)) {
     walk_pressed();
   }
@@ -486,8 +486,9 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
 }
 
 bool WorldImpl::one_pass_tick(const std::vector<int>& awake) const {
-  if (!one_pass_rule(settings) || !contact_press() || !budget.recovering.empty() ||
-      budget.unsettled || budget.most_pressed > settings.one_pass_give_tolerance) {
+  // one_pass_rule implies contact_press(): collide computed most_pressed and unsettled.
+  if (!one_pass_rule(settings) || !budget.recovering.empty() || budget.unsettled ||
+      budget.most_pressed > settings.one_pass_give_tolerance) {
     return false;
   }
   // Every island: no joint, no kinematic body.
