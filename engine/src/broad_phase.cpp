@@ -18,6 +18,8 @@ void WorldImpl::create_proxy(int si) {
   AABB fat = compute_aabb(s.geometry, b.xf).fattened(settings.aabb_margin);
   s.proxy = tree_of(s).create_proxy(fat, static_cast<uint64_t>(si), s.filter.category_bits,
                                     s.filter.mask_bits);
+  if (fat_boxes.size() < shapes.size()) fat_boxes.resize(shapes.size());
+  fat_boxes[si] = fat;
   if (!s.in_move_buffer) {
     s.in_move_buffer = true;
     move_buffer.push_back(si);
@@ -48,7 +50,7 @@ void WorldImpl::find_moves(int bi, F&& moved) const {
     AABB swept = compute_aabb(s.geometry, b.xf);
     swept.lower += travel.cwiseMin(Vec2::Zero());
     swept.upper += travel.cwiseMax(Vec2::Zero());
-    if (tree_of(s).fat_aabb(s.proxy).contains(swept)) continue;
+    if (fat_boxes[si].contains(swept)) continue;
     moved(si, swept.fattened(settings.aabb_margin));
   }
 }
@@ -64,6 +66,7 @@ void WorldImpl::buffer_move(int si) {
 void WorldImpl::synchronize_shapes(int bi) {
   find_moves(bi, [&](int si, const AABB& fat) {
     tree_of(shapes[si]).move_proxy(shapes[si].proxy, fat);
+    fat_boxes[si] = fat;
     buffer_move(si);
   });
 }
@@ -89,6 +92,7 @@ void WorldImpl::synchronize_awake(const std::vector<int>& awake) {
   for (int i = 0; i < chunks; ++i) {
     for (const auto& [si, fat] : scratch_moves[i]) {
       pending_moves.emplace_back(shapes[si].proxy, fat);
+      fat_boxes[si] = fat;
       buffer_move(si);
     }
   }
@@ -150,24 +154,42 @@ int64_t WorldImpl::update_pairs() {
   pairs.clear();
   auto query_shape = [&](int si, std::vector<std::pair<int, int>>* out) {
     const Shape& s = shapes[si];
-    const AABB& box = tree_of(s).fat_aabb(s.proxy);
+    const AABB& box = fat_boxes[si];
     // Outside a positive group (whose members meet whatever their bits), only shapes whose
     // bits pass both ways can collide with this one: the tree skips subtrees of others.
     const bool grouped = s.filter.group_index > 0;
     const uint64_t category = grouped ? ~0ull : s.filter.category_bits;
     const uint64_t mask = grouped ? ~0ull : s.filter.mask_bits;
     bool more = true;  // false once the contact limit is passed
-    auto walk = [&](const DynamicTree& t) {
-      t.query_filtered(box, category, mask, [&](int proxy) {
-        int other = static_cast<int>(t.user_data(proxy));
-        if (other == si) return true;
+    // Most boxes a moved box overlaps already have their contact (a contact lives as long as
+    // its shapes' boxes overlap), so the pair set is asked first, before either shape is read.
+    // Its lookups are likely cache misses: each hit's slot is fetched as the walk finds it, and
+    // the hits are looked at in batches, in the order found, so that the misses overlap.
+    constexpr int kBatch = 32;
+    int batch[kBatch];
+    int batched = 0;
+    auto take_batch = [&]() {
+      for (int i = 0; i < batched && more; ++i) {
+        const int other = batch[i];
+        if (contact_pairs.contains(pair_key(si, other))) continue;
         // A pair of two moved shapes is found from the lower index's side.
-        if (shapes[other].in_move_buffer && other < si) return true;
-        if (!should_collide(si, other) || has_contact(si, other)) return true;
+        if (shapes[other].in_move_buffer && other < si) continue;
+        if (!should_collide(si, other)) continue;
         out->emplace_back(std::min(si, other), std::max(si, other));
         more = found.fetch_add(1, std::memory_order_relaxed) < room;
-        return more;
+      }
+      batched = 0;
+      return more;
+    };
+    auto walk = [&](const DynamicTree& t) {
+      t.query_filtered(box, category, mask, [&](int proxy) {
+        const int other = static_cast<int>(t.user_data(proxy));
+        if (other == si) return true;
+        contact_pairs.prefetch(pair_key(si, other));
+        batch[batched++] = other;
+        return batched < kBatch || take_batch();
       });
+      take_batch();
     };
     walk(tree);
     if (more && bodies[s.body].type != BodyType::kStatic) walk(static_tree);

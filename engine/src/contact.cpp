@@ -202,9 +202,9 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
   overlap.assign(list.size(), kParted);
   auto refresh = [&](size_t k) {
     Contact& c = contacts[list[k]];
+    if (!fat_boxes[c.shape_a].overlaps(fat_boxes[c.shape_b])) return;
     const Shape& sa = shapes[c.shape_a];
     const Shape& sb = shapes[c.shape_b];
-    if (!tree_of(sa).fat_aabb(sa.proxy).overlaps(tree_of(sb).fat_aabb(sb.proxy))) return;
     overlap[k] = kOverlap;
     const Body& ba = bodies[c.body_a];
     const Body& bb = bodies[c.body_b];

@@ -55,25 +55,29 @@ void DynamicTree::query_filtered(const AABB& aabb, uint64_t category_bits, uint6
 template <bool kFiltered, typename Callback>
 void DynamicTree::walk(const AABB& aabb, uint64_t category_bits, uint64_t mask_bits,
                        Callback&& callback) const {
-  if (root_ == kNullNode) return;
+  auto wanted = [&](const Node& node) {
+    if constexpr (kFiltered) {
+      if ((node.category_bits & mask_bits) == 0 || (category_bits & node.mask_bits) == 0) {
+        return false;
+      }
+    }
+    return node.aabb.overlaps(aabb);
+  };
+  if (root_ == kNullNode || !wanted(nodes_[root_])) return;
+  // Children are tested before they are pushed, so the stack only holds nodes to enter.
   TraversalStack stack;
   stack.push(root_);
   while (!stack.empty()) {
     const int index = stack.pop();
     const Node& node = nodes_[index];
-    if constexpr (kFiltered) {
-      if ((node.category_bits & mask_bits) == 0 || (category_bits & node.mask_bits) == 0) {
-        continue;
-      }
-    }
-    if (!node.aabb.overlaps(aabb)) continue;
     if (node.is_leaf()) {
       if (!static_cast<bool>(callback(index))) return;
-    } else {
-      // child1 is pushed last so it is visited first; the order is fixed by the tree's shape.
-      stack.push(node.child2);
-      stack.push(node.child1);
+      continue;
     }
+    // child1 is pushed last so it is visited first; the order is fixed by the tree's shape.
+    const bool enter1 = wanted(nodes_[node.child1]);
+    if (wanted(nodes_[node.child2])) stack.push(node.child2);
+    if (enter1) stack.push(node.child1);
   }
 }
 

@@ -232,7 +232,9 @@ struct PolygonView {
 //   s_i = min_j n_i . (w_j - v_i)   (w_j: p2's vertices, v_i: the face's first vertex).
 // Returns max_i s_i and its face. The cores are disjoint iff this (or the other polygon's) value
 // is positive, and then it is a lower bound on their distance.
-double max_separation(const PolygonView& p1, const PolygonView& p2, int* face) {
+// Once a face separates the polygons by more than `limit` the caller has its answer (some value
+// above the limit: no points), so the other faces are not looked at.
+double max_separation(const PolygonView& p1, const PolygonView& p2, double limit, int* face) {
   int best_face = 0;
   double best = -DBL_MAX;
   for (int i = 0; i < p1.count; ++i) {
@@ -249,6 +251,7 @@ double max_separation(const PolygonView& p1, const PolygonView& p2, int* face) {
     if (s > best) {
       best = s;
       best_face = i;
+      if (best > limit) break;
     }
   }
   *face = best_face;
@@ -264,10 +267,10 @@ void collide_polygon_views(const PolygonView& pa, const PolygonView& pb, double 
   const double total = pa.radius + pb.radius;
   const double limit = total + speculative;
   int face_a = 0;
-  const double sep_a = max_separation(pa, pb, &face_a);
+  const double sep_a = max_separation(pa, pb, limit, &face_a);
   if (sep_a > limit) return;
   int face_b = 0;
-  const double sep_b = max_separation(pb, pa, &face_b);
+  const double sep_b = max_separation(pb, pa, limit, &face_b);
   if (sep_b > limit) return;
 
   // B's face becomes the reference only when clearly better, so that near ties (a box resting

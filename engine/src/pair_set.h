@@ -24,6 +24,11 @@ class PairSet {
     }
   }
 
+  // Starts loading the key's home slot, for a lookup soon after.
+  void prefetch(uint64_t key) const {
+    if (!slots_.empty()) __builtin_prefetch(&slots_[home(key)]);
+  }
+
   // Returns false if the key was there already.
   bool insert(uint64_t key) {
     assert(key != 0);

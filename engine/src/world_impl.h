@@ -108,6 +108,10 @@ class WorldImpl {
   const DynamicTree& tree_of(const Shape& s) const {
     return bodies[s.body].type == BodyType::kStatic ? static_tree : tree;
   }
+  // Each shape's broad-phase box, by shape index: a dense copy of its tree leaf's, kept equal
+  // to it wherever a leaf's box is set (create_proxy, moves, restore). The narrow phase's
+  // overlap test and the moved-box checks read it without touching the shape or the tree.
+  std::vector<AABB> fat_boxes;
   std::vector<int> move_buffer;  // shape indices whose proxies moved or were created
   std::vector<std::pair<int, AABB>> pending_moves;  // proxy and new fat box (commit_moves)
 

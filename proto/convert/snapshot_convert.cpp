@@ -196,8 +196,6 @@ void contact_to_proto(const Contact& c, v1::SnapshotContact* out) {
     put(mp.point, p->mutable_point());
     p->set_separation(mp.separation);
     p->set_id(mp.id);
-    put(mp.anchor_a, p->mutable_anchor_a());
-    put(mp.anchor_b, p->mutable_anchor_b());
     p->set_normal_impulse(mp.normal_impulse);
     p->set_tangent_impulse(mp.tangent_impulse);
     p->set_persisted(mp.persisted);
@@ -229,8 +227,6 @@ Status contact_from_proto(const v1::SnapshotContact& p, const std::string& path,
     mp.point = get(pp.point());
     mp.separation = pp.separation();
     mp.id = pp.id();
-    mp.anchor_a = get(pp.anchor_a());
-    mp.anchor_b = get(pp.anchor_b());
     mp.normal_impulse = pp.normal_impulse();
     mp.tangent_impulse = pp.tangent_impulse();
     mp.persisted = pp.persisted();

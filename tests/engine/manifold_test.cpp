@@ -54,8 +54,6 @@ void expect_vec_near(const Vec2& actual, const Vec2& expected, double tol) {
 
 void expect_solver_fields_default(const Manifold& m) {
   for (int i = 0; i < 2; ++i) {
-    EXPECT_EQ(m.points[i].anchor_a, Vec2::Zero());
-    EXPECT_EQ(m.points[i].anchor_b, Vec2::Zero());
     EXPECT_EQ(m.points[i].normal_impulse, 0.0);
     EXPECT_EQ(m.points[i].tangent_impulse, 0.0);
     EXPECT_FALSE(m.points[i].persisted);

@@ -20,15 +20,14 @@ namespace fulcrum {
 struct ManifoldPoint {
   Vec2 point = Vec2::Zero();  // world position, midway between the two surfaces, m
   double separation =
-      0.0;          // signed distance between the surfaces along the normal, m (< 0: overlap)
-  uint32_t id = 0;  // feature id, stable while the same features touch
+      0.0;  // signed distance between the surfaces along the normal, m (< 0: overlap)
 
   // Filled and used by the contact solver, not by the manifold functions.
-  Vec2 anchor_a = Vec2::Zero();  // point relative to body A's centre of mass, world frame
-  Vec2 anchor_b = Vec2::Zero();  // point relative to body B's centre of mass, world frame
   double normal_impulse = 0.0;   // accumulated, N s
   double tangent_impulse = 0.0;  // accumulated, N s
-  bool persisted = false;        // matched a point of the previous step's manifold
+
+  uint32_t id = 0;         // feature id, stable while the same features touch
+  bool persisted = false;  // matched a point of the previous step's manifold
 };
 
 struct Manifold {
