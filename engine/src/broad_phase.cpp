@@ -107,7 +107,7 @@ void WorldImpl::commit_moves() {
   const size_t threshold = std::max<size_t>(64, static_cast<size_t>(tree.proxy_count()) / 8);
   if (pending_moves.size() >= threshold) {
     for (const auto& [proxy, box] : pending_moves) tree.set_leaf_box(proxy, box);
-    tree.rebuild();
+    tree.rebuild(pool);
   } else {
     for (const auto& [proxy, box] : pending_moves) tree.move_proxy(proxy, box);
   }

@@ -5,6 +5,8 @@
 #include <cstdlib>
 #include <initializer_list>
 
+#include "worker_pool.h"
+
 namespace fulcrum {
 
 namespace {
@@ -95,35 +97,51 @@ void DynamicTree::set_leaf_filter(int proxy_id, uint64_t category_bits, uint64_t
   }
 }
 
-void DynamicTree::rebuild() {
+void DynamicTree::rebuild(WorkerPool* pool) {
   if (root_ == kNullNode) return;
-  // Collect the leaves with their centres, and free every internal node (its children are read
-  // before it is freed).
+  // The leaves in id order, and every internal node freed, in one pass over the nodes: a build
+  // that depends only on the leaves, not on the old tree.
   std::vector<LeafCentre>& leaves = scratch_leaves_;
-  std::vector<int>& stack = scratch_stack_;
   leaves.clear();
-  stack.assign(1, root_);
-  while (!stack.empty()) {
-    const int index = stack.back();
-    stack.pop_back();
-    if (nodes_[index].is_leaf()) {
-      const Vec2 c = nodes_[index].aabb.center();
+  for (int index = 0; index < static_cast<int>(nodes_.size()); ++index) {
+    const Node& node = nodes_[index];
+    if (node.height == 0) {
+      const Vec2 c = node.aabb.center();
       leaves.push_back({{c.x(), c.y()}, index});
-      continue;
+    } else if (node.height > 0) {
+      free_node(index);
     }
-    stack.push_back(nodes_[index].child1);
-    stack.push_back(nodes_[index].child2);
-    free_node(index);
   }
-  // A build that depends only on the leaves, not on the old tree.
-  std::sort(leaves.begin(), leaves.end(),
-            [](const LeafCentre& a, const LeafCentre& b) { return a.leaf < b.leaf; });
-  root_ = build_range(leaves.data(), static_cast<int>(leaves.size()));
+  const int count = static_cast<int>(leaves.size());
+  // The internal nodes the build fills, taken before it starts, so that it allocates nothing
+  // and its parts may run at once: the subtree over leaves [i, i + n) fills slots [i, i + n - 1).
+  std::vector<int>& slots = scratch_slots_;
+  slots.resize(count - 1);
+  for (int& slot : slots) slot = allocate_node();
+  // A large tree's four quarters are built on the pool's threads (the same tree as in one
+  // thread: the splits and the slots are fixed by the leaves), then joined here.
+  constexpr int kParallelLeaves = 1024;
+  if (pool != nullptr && count >= kParallelLeaves) {
+    const int half = split_range(leaves.data(), count);
+    const int q1 = split_range(leaves.data(), half);
+    const int q2 = split_range(leaves.data() + half, count - half);
+    const int first[5] = {0, q1, half, half + q2, count};
+    int roots[4];
+    auto part = [&](int i) {
+      roots[i] =
+          build_range(leaves.data() + first[i], first[i + 1] - first[i], slots.data() + first[i]);
+    };
+    run_chunks(pool, 4, part, true);
+    const int left = join(slots[q1 - 1], roots[0], roots[1]);
+    const int right = join(slots[half + q2 - 1], roots[2], roots[3]);
+    root_ = join(slots[half - 1], left, right);
+  } else {
+    root_ = build_range(leaves.data(), count, slots.data());
+  }
   nodes_[root_].parent_or_next = kNullNode;
 }
 
-int DynamicTree::build_range(LeafCentre* leaves, int count) {
-  if (count == 1) return leaves[0].leaf;
+int DynamicTree::split_range(LeafCentre* leaves, int count) {
   double lo[2] = {leaves[0].c[0], leaves[0].c[1]};
   double hi[2] = {lo[0], lo[1]};
   for (int i = 1; i < count; ++i) {
@@ -138,9 +156,10 @@ int DynamicTree::build_range(LeafCentre* leaves, int count) {
                    [axis](const LeafCentre& a, const LeafCentre& b) {
                      return a.c[axis] != b.c[axis] ? a.c[axis] < b.c[axis] : a.leaf < b.leaf;
                    });
-  const int left = build_range(leaves, half);
-  const int right = build_range(leaves + half, count - half);
-  const int node = allocate_node();
+  return half;
+}
+
+int DynamicTree::join(int node, int left, int right) {
   Node& n = nodes_[node];
   n.child1 = left;
   n.child2 = right;
@@ -148,6 +167,14 @@ int DynamicTree::build_range(LeafCentre* leaves, int count) {
   nodes_[right].parent_or_next = node;
   refit(node);
   return node;
+}
+
+int DynamicTree::build_range(LeafCentre* leaves, int count, const int* slots) {
+  if (count == 1) return leaves[0].leaf;
+  const int half = split_range(leaves, count);
+  const int left = build_range(leaves, half, slots);
+  const int right = build_range(leaves + half, count - half, slots + half);
+  return join(slots[half - 1], left, right);
 }
 
 // Cost of a sibling S for new leaf L: the perimeter of the new parent, perimeter(S u L), plus

@@ -13,6 +13,8 @@
 
 namespace fulcrum {
 
+class WorkerPool;
+
 inline constexpr int kNullNode = -1;
 
 class DynamicTree {
@@ -30,8 +32,9 @@ class DynamicTree {
   // between), then one rebuild(), which builds every internal node anew, top down, splitting
   // the leaves at the median of their centres along the wider axis. Cheaper than a
   // move_proxy each when a large share of the leaves moved.
+  // With a pool, a large tree's parts are built on its threads (the same tree).
   void set_leaf_box(int proxy_id, const AABB& fat_aabb) { nodes_[proxy_id].aabb = fat_aabb; }
-  void rebuild();
+  void rebuild(WorkerPool* pool = nullptr);
 
   // Replaces a leaf's filter bits (and its ancestors' unions of them).
   void set_leaf_filter(int proxy_id, uint64_t category_bits, uint64_t mask_bits);
@@ -107,8 +110,13 @@ class DynamicTree {
     double c[2];  // centre of the leaf's box
     int leaf;
   };
-  // The subtree over leaves[0, count) (rebuild); returns its root.
-  int build_range(LeafCentre* leaves, int count);
+  // The subtree over leaves[0, count) (rebuild), its internal nodes slots[0, count - 1);
+  // returns its root.
+  int build_range(LeafCentre* leaves, int count, const int* slots);
+  // Orders leaves[0, count) about their median centre along the wider axis; returns count / 2.
+  int split_range(LeafCentre* leaves, int count);
+  // Makes `node` the parent of `left` and `right`, refitted; returns it.
+  int join(int node, int left, int right);
 
   std::vector<Node> nodes_;
   std::vector<uint64_t> user_data_;  // per node; meaningful for leaves only
@@ -117,7 +125,7 @@ class DynamicTree {
   int node_count_ = 0;  // nodes in the tree (leaves and internal), not on the free list
   int proxy_count_ = 0;
   std::vector<LeafCentre> scratch_leaves_;  // rebuild
-  std::vector<int> scratch_stack_;
+  std::vector<int> scratch_slots_;          // rebuild
 };
 
 }  // namespace fulcrum
