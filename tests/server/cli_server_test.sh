@@ -87,10 +87,12 @@ grep -q "replay-dir" "$WORK/err.txt" || fail "replay start: $(cat "$WORK/err.txt
 # precision and quantized. Lines come with increasing ticks; the last one is the world's tick
 # and exact hash as `fulcrum worlds` lists it; a quantized frame is under half the bytes of a
 # full one (a double field takes 9 bytes, a fixed-point one 1 to 4: measured here 8.3 kB
-# against 3.2 kB for the 211 resting bodies).
-"$F" watch 1 --seconds 4 --bodies all --server "$ADDR" >"$WORK/full.out" 2>"$WORK/full.err" &
+# against 3.2 kB for the 211 resting bodies). The watchers outlast the three steps by seconds
+# even when each CLI call takes over a second (sanitizer builds on a loaded machine); a
+# watcher prints a line only for new frames, so the wait adds no lines.
+"$F" watch 1 --seconds 8 --bodies all --server "$ADDR" >"$WORK/full.out" 2>"$WORK/full.err" &
 FULL=$!
-"$F" watch 1 --seconds 4 --bodies all --quantized --server "$ADDR" >"$WORK/q.out" 2>"$WORK/q.err" &
+"$F" watch 1 --seconds 8 --bodies all --quantized --server "$ADDR" >"$WORK/q.out" 2>"$WORK/q.err" &
 QUANT=$!
 sleep 0.3
 for _ in 1 2 3; do
