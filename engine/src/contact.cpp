@@ -208,7 +208,16 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
     overlap[k] = kOverlap;
     const Body& ba = bodies[c.body_a];
     const Body& bb = bodies[c.body_b];
-    Manifold old = c.manifold;
+    // What warm starting needs of the old points: their ids and impulses.
+    struct Kept {
+      uint32_t id;
+      double normal_impulse, tangent_impulse;
+    } kept[2];
+    const int kept_count = c.manifold.count;
+    for (int j = 0; j < kept_count; ++j) {
+      const ManifoldPoint& p = c.manifold.points[j];
+      kept[j] = {p.id, p.normal_impulse, p.tangent_impulse};
+    }
     // Points are kept as far out as the bodies can close in one tick, so that the solver sees
     // a fast body's contact before it arrives (speculative contact).
     double reach = speculative + settings.dt * length(bb.v - ba.v);
@@ -216,10 +225,10 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
     // Warm starting: a point that keeps its feature id keeps its accumulated impulses.
     for (int i = 0; i < c.manifold.count; ++i) {
       ManifoldPoint& p = c.manifold.points[i];
-      for (int j = 0; j < old.count; ++j) {
-        if (old.points[j].id == p.id) {
-          p.normal_impulse = old.points[j].normal_impulse;
-          p.tangent_impulse = old.points[j].tangent_impulse;
+      for (int j = 0; j < kept_count; ++j) {
+        if (kept[j].id == p.id) {
+          p.normal_impulse = kept[j].normal_impulse;
+          p.tangent_impulse = kept[j].tangent_impulse;
           p.persisted = true;
           break;
         }
