@@ -143,5 +143,8 @@ def test_with_the_bdp_probe_on_the_same_reader_falls_behind(server, scenes):
     # docs/python.md's advice should be measured again.
     ages, skipped = _frame_ages(server.address, scenes / "pyramid.json",
                                 [("grpc.http2.bdp_probe", 1)], seconds=3.0, read_period=0.1)
-    assert skipped == 0
+    # The frames queue instead of being coalesced: a loaded machine may coalesce one or two
+    # before the window has grown (seen once in CI), but far fewer than the reader reads, where
+    # with coalescing about five are skipped for each one read.
+    assert skipped < len(ages) // 4, (skipped, len(ages))
     assert max(ages) > 60, ages
