@@ -62,10 +62,6 @@ const std::vector<uint8_t>& WorldImpl::awake_flags() {
   return scratch_awake_flag;
 }
 
-bool WorldImpl::has_contact(int sa, int sb) const {
-  return contact_pairs.contains(pair_key(sa, sb));
-}
-
 void WorldImpl::create_contact(int sa, int sb) {
   // The manifold functions want the lower shape type first.
   if (geometry_type(shapes[sb].geometry) < geometry_type(shapes[sa].geometry)) std::swap(sa, sb);

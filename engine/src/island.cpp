@@ -3,6 +3,7 @@
 // body has rested for settings.time_to_sleep goes to sleep as a whole; it then costs nothing
 // until an awake body touches it or an edit wakes it.
 #include <algorithm>
+#include <cassert>
 
 #include "world_impl.h"
 
@@ -68,7 +69,7 @@ void WorldImpl::update_sleep(const std::vector<int>& awake) {
   };
   for (const int ci : touching_contacts) {
     const Contact& c = contacts[ci];
-    if (!c.alive || !c.touching || c.sensor) continue;
+    assert(c.alive && c.touching && !c.sensor);
     const int ka = awake_dynamic(c.body_a);
     const int kb = awake_dynamic(c.body_b);
     if (ka >= 0 && kb >= 0) {

@@ -24,7 +24,7 @@ WorldSnapshot World::snapshot() const {
   s.shape_boxes.resize(w.shapes.size());
   for (size_t i = 0; i < w.shapes.size(); ++i) {
     Shape& shape = s.shapes[i];
-    if (shape.alive) s.shape_boxes[i] = w.tree_of(shape).fat_aabb(shape.proxy);
+    if (shape.alive) s.shape_boxes[i] = w.fat_boxes[i];
     shape.proxy = kNullIndex;
   }
   s.contacts = w.contacts;

@@ -395,7 +395,7 @@ Result<ShapeId> World::create_shape(BodyId body, const ShapeDef& def) {
   }
   int si = add_shape(w, bi, def);
   w.add_shape_mass(bi, si);
-  w.wake_in_box(w.tree_of(w.shapes[si]).fat_aabb(w.shapes[si].proxy));
+  w.wake_in_box(w.fat_boxes[si]);
   return w.shape_id(si);
 }
 
@@ -419,7 +419,7 @@ Result<std::vector<ShapeId>> World::create_chain(BodyId body, const ChainDef& de
     sd.filter = def.filter;
     sd.user_data = def.user_data;
     int si = add_shape(w, bi, sd);
-    w.wake_in_box(w.tree_of(w.shapes[si]).fat_aabb(w.shapes[si].proxy));
+    w.wake_in_box(w.fat_boxes[si]);
     ids.push_back(w.shape_id(si));
   }
   return ids;
@@ -431,7 +431,7 @@ Status World::destroy_shape(ShapeId id) {
   if (si == kNullIndex) return stale_shape(id);
   int bi = w.shapes[si].body;
   w.wake_island(bi);
-  w.wake_in_box(w.tree_of(w.shapes[si]).fat_aabb(w.shapes[si].proxy));
+  w.wake_in_box(w.fat_boxes[si]);
   // Destroy the contacts of this shape only.
   for (int e = w.bodies[bi].contact_list; e != kNullIndex;) {
     int ci = edge_contact(e);
@@ -541,7 +541,7 @@ Status World::set_transform(BodyId id, const Vec2& position, double angle) {
   b.center = b.xf.apply(b.local_center);
   w.wake_island(bi);
   w.synchronize_shapes(bi);
-  for (int si : b.shapes) w.wake_in_box(w.tree_of(w.shapes[si]).fat_aabb(w.shapes[si].proxy));
+  for (int si : b.shapes) w.wake_in_box(w.fat_boxes[si]);
   return {};
 }
 

@@ -181,7 +181,6 @@ class WorldImpl {
   // --- contacts (contact.cpp) ---
   void create_contact(int shape_a, int shape_b);
   void destroy_contact(int contact, bool report_end);
-  bool has_contact(int shape_a, int shape_b) const;
   // Refreshes the manifolds of contacts with an awake body; destroys contacts whose boxes
   // stopped overlapping; reports begin/end events; wakes bodies touched by awake ones. Lists
   // the touching contacts it leaves (touching_contacts).
