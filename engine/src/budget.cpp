@@ -340,19 +340,20 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   reach.assign(n, 0.0);
   std::vector<uint8_t>& unsettled = budget.body_unsettled;
   unsettled.assign(n, 0);
+  // Over the touching contacts collide listed: every touching solid contact of an awake body
+  // is there (maxima and an or, the same in any order).
   auto walk_pressed = [&] {
-    for (int k = 0; k < n; ++k) {
-      const int bi = awake[k];
-      if (!bodies[bi].is_dynamic()) continue;
-      for (int e = bodies[bi].contact_list; e != kNullIndex;) {
-        const int ci = edge_contact(e);
-        const Contact& c = contacts[ci];
-        e = c.edges[edge_side(e)].next;
-        if (!c.touching || c.sensor) continue;
+    for (const int ci : touching_contacts) {
+      const Contact& c = contacts[ci];
+      for (const int bi : {c.body_a, c.body_b}) {
+        const int k = awake_dynamic(bi);
+        if (k < 0) continue;
         pressed[k] = std::max(pressed[k], contact_pressed[ci]);
         reach[k] = std::max(reach[k], contact_reach[ci]);
         unsettled[k] = unsettled[k] | contact_unsettled[ci];
       }
+    }
+    for (int k = 0; k < n; ++k) {
       more = more || contact_budget_substeps(settings, pressed[k]) > settings.substeps;
     }
   };
@@ -405,10 +406,10 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
     const bool driven = j.enable_motor || j.type == JointType::kMotor;
     if (!o.is_dynamic() && (o.awake || driven)) island_need[k] = -1;
   });
-  // Touching contacts, in one pass over the contact pool (in memory order: far cheaper than
-  // walking every body's list, and the islands are the same whatever the order).
-  for (const Contact& c : contacts) {
-    if (!c.alive || !c.touching || c.sensor) continue;
+  // Touching contacts, from collide's list (in id order: far cheaper than walking every body's
+  // list, and the islands are the same whatever the order).
+  for (const int ci : touching_contacts) {
+    const Contact& c = contacts[ci];
     const int ka = awake_dynamic(c.body_a);
     const int kb = awake_dynamic(c.body_b);
     if (ka >= 0 && kb >= 0) {
@@ -462,7 +463,7 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
       return grp.substeps == sub && grp.relax == relax && grp.iterations == passes;
     });
     if (it == budget.groups.end()) {
-      budget.groups.push_back(BudgetGroup{sub, relax, passes, {}});
+      budget.groups.push_back(BudgetGroup{sub, relax, passes, {}, {}});
       it = budget.groups.end() - 1;
     }
     it->bodies.push_back(awake[k]);
@@ -482,6 +483,20 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
               if (a.substeps != b.substeps) return a.substeps < b.substeps;
               return a.relax != b.relax ? a.relax < b.relax : a.iterations < b.iterations;
             });
+  // Each touching contact goes to the group of its lower-indexed awake body, in id order.
+  std::vector<int>& group_of = budget.group_of;
+  group_of.resize(n);
+  for (size_t i = 0; i < budget.groups.size(); ++i) {
+    budget.groups[i].contacts.clear();
+    for (const int bi : budget.groups[i].bodies) group_of[slot[bi] - 1] = static_cast<int>(i);
+  }
+  for (const int ci : touching_contacts) {
+    const Contact& c = contacts[ci];
+    const bool awake_a = bodies[c.body_a].awake, awake_b = bodies[c.body_b].awake;
+    const int owner =
+        awake_a && awake_b ? std::min(c.body_a, c.body_b) : (awake_a ? c.body_a : c.body_b);
+    budget.groups[group_of[slot[owner] - 1]].contacts.push_back(ci);
+  }
   return true;
 }
 
@@ -504,12 +519,12 @@ void WorldImpl::solve(const std::vector<int>& awake) {
   budget.max_iterations = settings.velocity_iterations;
   if (!plan_budgets(awake)) {
     if (!one_pass_tick(awake)) {
-      solve_group(awake);
+      solve_group(awake, touching_contacts);
       return;
     }
     const int iterations = settings.velocity_iterations;
     settings.velocity_iterations = budget.max_iterations = 1;
-    solve_group(awake);
+    solve_group(awake, touching_contacts);
     settings.velocity_iterations = iterations;
     return;
   }
@@ -528,7 +543,7 @@ void WorldImpl::solve(const std::vector<int>& awake) {
     budget.max_iterations = std::max(budget.max_iterations, grp.iterations);
     settings.joint_hertz = joint_hertz * grp.substeps / substeps;
     settings.contact_hertz = contact_hertz * grp.substeps / substeps;
-    solve_group(grp.bodies);
+    solve_group(grp.bodies, grp.contacts);
   }
   settings.substeps = substeps;
   settings.velocity_iterations = iterations;

@@ -80,29 +80,6 @@ inline double current_separation(const SolverBody& a, const SolverBody& b, const
   return dx * nx + dy * ny + p.base_separation;
 }
 
-// Gathers the awake, touching, solid contacts in id order.
-void gather_contacts(WorldImpl& w, const std::vector<int>& awake, std::vector<int>* out) {
-  out->clear();
-  if (awake.size() == w.awake_bodies.size()) {
-    // All awake bodies (not one budget group): the step's collide listed the same contacts, in
-    // id order.
-    out->assign(w.touching_contacts.begin(), w.touching_contacts.end());
-    return;
-  }
-  for (int bi : awake) {
-    for (int e = w.bodies[bi].contact_list; e != kNullIndex;) {
-      int ci = edge_contact(e);
-      const Contact& c = w.contacts[ci];
-      int other = edge_side(e) == 0 ? c.body_b : c.body_a;
-      // Take each contact once: from its lower-indexed awake body.
-      bool other_first = w.bodies[other].awake && other < bi;
-      if (c.touching && !c.sensor && !other_first) out->push_back(ci);
-      e = c.edges[edge_side(e)].next;
-    }
-  }
-  std::sort(out->begin(), out->end());
-}
-
 void load_bodies(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s) {
   s.bodies.resize(awake.size() + 1);
   s.bodies[0] = SolverBody{};  // the shared static body: zero velocity, infinite mass
@@ -771,7 +748,8 @@ void finalize_bodies(WorldImpl& w, const std::vector<int>& awake, SolverScratch&
 
 }  // namespace
 
-void WorldImpl::solve_group(const std::vector<int>& awake) {
+void WorldImpl::solve_group(const std::vector<int>& awake,
+                            const std::vector<int>& contacts_sorted) {
   SolverScratch& s = solver_scratch;
   const WorldSettings& set = settings;
   const double h = set.dt / set.substeps;
@@ -786,7 +764,7 @@ void WorldImpl::solve_group(const std::vector<int>& awake) {
   relax.use_bias = false;
 
   load_bodies(*this, awake, s);
-  gather_contacts(*this, awake, &s.contacts);
+  s.contacts.assign(contacts_sorted.begin(), contacts_sorted.end());
   s.drives.resize(awake.size());
   // Soft contacts are solved colour by colour in lanes (contact_lanes.h); rigid contacts (the
   // classic settings, with the block solver and split impulses) one by one in id order.
@@ -882,7 +860,7 @@ void WorldImpl::prepare_reference_tick() {
   const double h = settings.dt;
   budget.base_substeps = settings.substeps;  // impulses as kept, not rescaled
   load_bodies(*this, awake, s);
-  gather_contacts(*this, awake, &s.contacts);
+  s.contacts.assign(touching_contacts.begin(), touching_contacts.end());
   prepare(*this, s, h, nullptr);
   prepare_joints(awake, h);
   apply_spring_forces(h);

@@ -197,8 +197,9 @@ class WorldImpl {
   // --- solver (contact_solver.cpp) ---
   void solve(const std::vector<int>& awake_sorted);
   // One group's solve (all awake bodies, or one budget group: islands of one substep count,
-  // run with settings.substeps and joint_hertz set for it).
-  void solve_group(const std::vector<int>& bodies_sorted);
+  // run with settings.substeps and joint_hertz set for it), with its touching solid contacts
+  // (touching_contacts, or the group's share of them).
+  void solve_group(const std::vector<int>& bodies_sorted, const std::vector<int>& contacts_sorted);
   // Splits the awake bodies into budget groups (budget.cpp); false when all keep the
   // world's substeps.
   bool plan_budgets(const std::vector<int>& awake_sorted);
@@ -239,6 +240,9 @@ class WorldImpl {
     int relax = 0;            // relax passes per substep
     int iterations = 0;       // velocity passes per substep
     std::vector<int> bodies;  // in id order
+    // Its touching solid contacts, in id order: those whose lower-indexed awake body is in
+    // the group (a contact's awake dynamic bodies are always in one group).
+    std::vector<int> contacts;
   };
   struct Budget {
     int islands = 0;         // islands given more substeps or relax passes than the world's
@@ -253,6 +257,7 @@ class WorldImpl {
     std::vector<uint8_t> body_unsettled;  // per body: one of its touching contacts is unsettled
     std::vector<int> recovering;          // this step's recovering contacts, in id order
     std::vector<int> need, island_need;
+    std::vector<int> group_of;                  // per position in the awake set: its group
     std::vector<int> relax_need, island_relax;  // per body, then per island root
     std::vector<uint8_t> island_passes;  // per island root: 1 keeps the world's velocity passes
     // The world's substeps while a group is solved with its own: contact impulses are kept
