@@ -144,9 +144,10 @@ int main(int argc, char** argv) {
         return 2;
       }
     } else {
-      std::fprintf(stderr,
-                   "usage: fulcrum_bench [--scene NAME]... [--steps N] [--repeats R] "
-                   "[--iterations K] [--threads N] [--simd scalar|lanes2|lanes4|auto] [--csv]\n");
+      std::fprintf(
+          stderr,
+          "usage: fulcrum_bench [--scene NAME]... [--steps N] [--repeats R] "
+          "[--iterations K] [--threads N] [--simd scalar|lanes2|lanes4|avx512|auto] [--csv]\n");
       return 2;
     }
   }

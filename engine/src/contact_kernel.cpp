@@ -55,19 +55,24 @@ void warm_points_x2(PointBlock* blocks, int first, int end, SolverBody* bodies) 
 namespace {
 
 bool cpu_runs(SimdPath path) {
-  if (path != SimdPath::kLanes4) return true;
 #if defined(__x86_64__) || defined(__i386__)
-  return __builtin_cpu_supports("avx2");
+  if (path == SimdPath::kLanes4) return __builtin_cpu_supports("avx2");
+  if (path == SimdPath::kAvx512) {
+    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("avx512f") &&
+           __builtin_cpu_supports("avx512vl");
+  }
+  return true;
 #else
-  return true;               // the generic 4-lane build runs anywhere
+  return path != SimdPath::kAvx512;  // the generic 4-lane build runs anywhere
 #endif
 }
 
 SimdPath widest() {
 #if defined(__x86_64__) || defined(__i386__)
+  if (cpu_runs(SimdPath::kAvx512)) return SimdPath::kAvx512;
   return cpu_runs(SimdPath::kLanes4) ? SimdPath::kLanes4 : SimdPath::kLanes2;
 #else
-  return SimdPath::kLanes2;  // NEON holds two doubles; 4 lanes would only split in two
+  return SimdPath::kLanes2;          // NEON holds two doubles; 4 lanes would only split in two
 #endif
 }
 
@@ -93,6 +98,8 @@ const char* simd_path_name(SimdPath path) {
       return "lanes2";
     case SimdPath::kLanes4:
       return "lanes4";
+    case SimdPath::kAvx512:
+      return "avx512";
   }
   return "unknown";
 }
@@ -102,13 +109,14 @@ Result<SimdPath> parse_simd_path(const std::string& name) {
   if (name == "scalar") return SimdPath::kScalar;
   if (name == "lanes2" || name == "sse2" || name == "neon") return SimdPath::kLanes2;
   if (name == "lanes4" || name == "avx2") return SimdPath::kLanes4;
+  if (name == "avx512") return SimdPath::kAvx512;
   return invalid_argument("simd path '" + name +
-                          "': expected auto, scalar, lanes2 (sse2, neon) or lanes4 (avx2)");
+                          "': expected auto, scalar, lanes2 (sse2, neon), lanes4 (avx2) or avx512");
 }
 
 std::vector<SimdPath> supported_simd_paths() {
   std::vector<SimdPath> out;
-  for (SimdPath p : {SimdPath::kScalar, SimdPath::kLanes2, SimdPath::kLanes4}) {
+  for (SimdPath p : {SimdPath::kScalar, SimdPath::kLanes2, SimdPath::kLanes4, SimdPath::kAvx512}) {
     if (cpu_runs(p)) out.push_back(p);
   }
   return out;
@@ -274,6 +282,8 @@ struct PathFns {
 
 PathFns path_fns() {
   switch (active_simd_path()) {
+    case SimdPath::kAvx512:
+      return {lanes::solve_x4e, lanes::warm_x4e, lanes::separation_x4e};
     case SimdPath::kLanes4:
       return {lanes::solve_x4, lanes::warm_x4, lanes::separation_x4};
     case SimdPath::kLanes2:

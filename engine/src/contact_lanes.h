@@ -134,6 +134,9 @@ void separation_x2(ContactBlock*, int, int, const SolverBody*);
 double solve_x4(ContactBlock*, int, int, SolverBody*, const LaneRule&);
 void warm_x4(ContactBlock*, int, int, SolverBody*);
 void separation_x4(ContactBlock*, int, int, const SolverBody*);
+double solve_x4e(ContactBlock*, int, int, SolverBody*, const LaneRule&);  // AVX-512F and VL
+void warm_x4e(ContactBlock*, int, int, SolverBody*);
+void separation_x4e(ContactBlock*, int, int, const SolverBody*);
 }  // namespace lanes
 
 // Blocks per chunk when a colour is shared out among threads: a constant, so that which

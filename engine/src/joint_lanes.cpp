@@ -54,6 +54,8 @@ struct PathFns {
 
 PathFns path_fns() {
   switch (active_simd_path()) {
+    case SimdPath::kAvx512:
+      return {lanes::solve_points_x4e, lanes::warm_points_x4e};
     case SimdPath::kLanes4:
       return {lanes::solve_points_x4, lanes::warm_points_x4};
     case SimdPath::kLanes2:

@@ -71,6 +71,8 @@ void solve_points_x2(PointBlock*, int, int, SolverBody*, const PointRule&);
 void warm_points_x2(PointBlock*, int, int, SolverBody*);
 void solve_points_x4(PointBlock*, int, int, SolverBody*, const PointRule&);
 void warm_points_x4(PointBlock*, int, int, SolverBody*);
+void solve_points_x4e(PointBlock*, int, int, SolverBody*, const PointRule&);  // AVX-512F and VL
+void warm_points_x4e(PointBlock*, int, int, SolverBody*);
 }  // namespace lanes
 
 }  // namespace fulcrum

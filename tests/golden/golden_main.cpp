@@ -8,7 +8,7 @@
 //   no scenario names: every scenario, in order
 //   --per-tick: one line "name tick hash" per tick instead (tick = World::tick() after the
 //               step, from 1), for finding the first tick at which two builds differ
-//   --simd PATH: the contact solver's instruction path (scalar, lanes2, lanes4, auto); an
+//   --simd PATH: the contact solver's instruction path (scalar, lanes2, lanes4, avx512, auto); an
 //               error, not a fallback, when this CPU cannot run it
 //   --threads N: World::set_threads(N) for every scenario (default 1)
 #include <cinttypes>
