@@ -54,6 +54,80 @@ bool touching_now(const Contact& c) {
   return c.sensor ? overlapping(c.manifold) : c.manifold.count > 0;
 }
 
+// Whether `normal` (in the shape's frame) is one of its faces' outward normals.
+bool face_normal(const Geometry& g, const Vec2& normal) {
+  constexpr double kParallel = 1.0 - 1e-9;
+  if (const Polygon* p = std::get_if<Polygon>(&g)) {
+    for (int i = 0; i < p->count; ++i) {
+      if (dot(p->normals[i], normal) > kParallel) return true;
+    }
+    return false;
+  }
+  const Segment& sg = std::get<Segment>(g);
+  const Vec2 d = sg.point2 - sg.point1;
+  return std::abs(dot(d, normal)) < 1e-9 * length(d);
+}
+
+bool flat(const Geometry& g) {
+  if (const Polygon* p = std::get_if<Polygon>(&g)) return p->radius == 0.0;
+  return std::holds_alternative<Segment>(g);
+}
+
+// Keeps a new touching manifold for reuse when its normal is a face normal of A or of B (the
+// face that will turn with its body); a normal between closest points (corners meeting) is not
+// kept, since it turns as the corners slide.
+void cache_manifold(Contact& c, const Geometry& ga, const Transform& xfa, const Geometry& gb,
+                    const Transform& xfb) {
+  if (c.manifold.count == 0) return;
+  const Vec2 n = xfa.q.inv_rotate(c.manifold.normal);
+  if (face_normal(ga, n)) {
+    c.cache.normal_on_b = false;
+  } else if (face_normal(gb, -xfb.q.inv_rotate(c.manifold.normal))) {
+    c.cache.normal_on_b = true;
+  } else {
+    return;
+  }
+  c.cache.valid = true;
+  c.cache.pose = inv_mul(xfa, xfb);
+  c.cache.normal = n;
+  for (int i = 0; i < c.manifold.count; ++i) {
+    c.cache.points[i] = xfa.inv_apply(c.manifold.points[i].point);
+    c.cache.separations[i] = c.manifold.points[i].separation;
+  }
+}
+
+// Moves a touching contact's kept manifold with the bodies when B has moved little relative to A
+// since it was found: by at most `reuse` at each point, and turned by at most reuse / size
+// (size: at least the smaller shape's diameter). Returns false, changing nothing, otherwise.
+//
+// B's motion relative to A since then is x -> turn x + shift in A's frame. Each point (midway
+// between the surfaces) moved by d = turn x + shift - x with B; to first order the surfaces'
+// gap along the normal grew by d . n, as the solver's substeps reckon it within a tick. The
+// normal turns with the body whose face it is. The points keep their ids and impulses.
+bool reuse_manifold(Contact& c, const Transform& xfa, const Transform& xfb, double size,
+                    double reuse) {
+  if (!c.cache.valid || c.manifold.count == 0) return false;
+  const Transform pose = inv_mul(xfa, xfb);
+  // The relative motion since: x -> turn x + shift, in A's frame.
+  const Rot turn = inv_mul(c.cache.pose.q, pose.q);
+  if (!(turn.c > 0.0) || std::abs(turn.s) * size > reuse) return false;
+  const Vec2 shift = pose.p - turn.rotate(c.cache.pose.p);
+  Vec2 moved[2];
+  for (int i = 0; i < c.manifold.count; ++i) {
+    moved[i] = turn.rotate(c.cache.points[i]) + shift - c.cache.points[i];
+    if (!(moved[i].squaredNorm() <= reuse * reuse)) return false;
+  }
+  const Vec2 n = c.cache.normal_on_b ? turn.rotate(c.cache.normal) : c.cache.normal;
+  c.manifold.normal = xfa.q.rotate(n);
+  for (int i = 0; i < c.manifold.count; ++i) {
+    ManifoldPoint& p = c.manifold.points[i];
+    p.separation = c.cache.separations[i] + dot(moved[i], n);
+    p.point = xfa.apply(c.cache.points[i] + 0.5 * moved[i]);
+    p.persisted = true;
+  }
+  return true;
+}
+
 }  // namespace
 
 const std::vector<uint8_t>& WorldImpl::awake_flags() {
@@ -190,6 +264,7 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
   // none of which the rest of this function changes for another contact, so they may be
   // computed in any order, on several threads, in chunks fixed by the list.
   const double speculative = settings.speculative_distance;
+  const double reuse = settings.manifold_reuse_distance;
   // Each contact's state once refreshed: its boxes parted, or they overlap and the id-order pass
   // below has work to do, or nothing there changes (kSteady; kSteadyTouching when it is a
   // touching contact the solver wants).
@@ -204,6 +279,15 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
     overlap[k] = kOverlap;
     const Body& ba = bodies[c.body_a];
     const Body& bb = bodies[c.body_b];
+    const bool reusable = reuse > 0.0 && !c.sensor && flat(sa.geometry) && flat(sb.geometry);
+    if (reusable) {
+      // The smaller shape's size, from its fat box: width + height is at least its diameter.
+      const AABB& fa = fat_boxes[c.shape_a];
+      const AABB& fb = fat_boxes[c.shape_b];
+      const Vec2 ea = fa.upper - fa.lower, eb = fb.upper - fb.lower;
+      const double size = std::min(ea.x() + ea.y(), eb.x() + eb.y());
+      if (reuse_manifold(c, ba.xf, bb.xf, size, reuse)) return;
+    }
     // What warm starting needs of the old points: their ids and impulses.
     struct Kept {
       uint32_t id;
@@ -230,6 +314,8 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
         }
       }
     }
+    c.cache.valid = false;
+    if (reusable) cache_manifold(c, sa.geometry, ba.xf, sb.geometry, bb.xf);
   };
   constexpr size_t kContactsPerChunk = 64;
   const int chunks = static_cast<int>((list.size() + kContactsPerChunk - 1) / kContactsPerChunk);

@@ -209,6 +209,19 @@ Status check_contact(const WorldSnapshot& s, size_t ci) {
       FULCRUM_RETURN_IF_ERROR(check_number(field, x));
     }
   }
+  const ManifoldCache& k = c.cache;
+  if (!k.valid) return {};
+  if (c.manifold.count == 0) {
+    return corrupt(at("contact", ci, "cache") + " is kept for a manifold without points");
+  }
+  FULCRUM_RETURN_IF_ERROR(check_number(at("contact", ci, "cache.pose"), k.pose.p));
+  FULCRUM_RETURN_IF_ERROR(check_number(at("contact", ci, "cache.pose"), k.pose.q.c));
+  FULCRUM_RETURN_IF_ERROR(check_number(at("contact", ci, "cache.pose"), k.pose.q.s));
+  FULCRUM_RETURN_IF_ERROR(check_number(at("contact", ci, "cache.normal"), k.normal));
+  for (int i = 0; i < c.manifold.count; ++i) {
+    FULCRUM_RETURN_IF_ERROR(check_number(at("contact", ci, "cache.points"), k.points[i]));
+    FULCRUM_RETURN_IF_ERROR(check_number(at("contact", ci, "cache.separations"), k.separations[i]));
+  }
   return {};
 }
 

@@ -89,6 +89,20 @@ uint64_t World::state_hash() const {
       h.add(p.normal_impulse);
       h.add(p.tangent_impulse);
     }
+    // The kept manifold decides the next ticks' manifolds: two copies that differ only here
+    // would part later.
+    h.add(c.cache.valid);
+    if (c.cache.valid) {
+      h.add(c.cache.normal_on_b);
+      h.add(c.cache.pose.p);
+      h.add(c.cache.pose.q.c);
+      h.add(c.cache.pose.q.s);
+      h.add(c.cache.normal);
+      for (int i = 0; i < c.manifold.count; ++i) {
+        h.add(c.cache.points[i]);
+        h.add(c.cache.separations[i]);
+      }
+    }
   }
   h.add(static_cast<uint64_t>(w.joints.size()));
   for (const Joint& j : w.joints) {

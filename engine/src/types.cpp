@@ -66,6 +66,8 @@ Status validate_settings(const WorldSettings& s) {
   FULCRUM_RETURN_IF_ERROR(
       check_in_range("settings.speculative_distance", s.speculative_distance, 0.0, 10.0));
   FULCRUM_RETURN_IF_ERROR(check_in_range("settings.aabb_margin", s.aabb_margin, 0.0, 100.0));
+  FULCRUM_RETURN_IF_ERROR(
+      check_in_range("settings.manifold_reuse_distance", s.manifold_reuse_distance, 0.0, 1.0));
   FULCRUM_RETURN_IF_ERROR(check_above("settings.max_linear_speed", s.max_linear_speed, 0.0));
   FULCRUM_RETURN_IF_ERROR(check_above("settings.time_to_sleep", s.time_to_sleep, 0.0));
   FULCRUM_RETURN_IF_ERROR(

@@ -210,6 +210,9 @@ Status settings_from_proto(const v1::WorldSettings& p, const std::string& path, 
   CONVERT_RETURN_IF_ERROR(read_opt(join(path, "speculative_distance"), p.has_speculative_distance(),
                                    p.speculative_distance(), Range::kNonNegative,
                                    &s->speculative_distance));
+  CONVERT_RETURN_IF_ERROR(read_opt(join(path, "manifold_reuse_distance"),
+                                   p.has_manifold_reuse_distance(), p.manifold_reuse_distance(),
+                                   Range::kNonNegative, &s->manifold_reuse_distance));
   CONVERT_RETURN_IF_ERROR(read_opt(join(path, "aabb_margin"), p.has_aabb_margin(), p.aabb_margin(),
                                    Range::kNonNegative, &s->aabb_margin));
   CONVERT_RETURN_IF_ERROR(read_opt(join(path, "max_linear_speed"), p.has_max_linear_speed(),
@@ -931,6 +934,7 @@ void settings_to_proto(const WorldSettings& s, v1::WorldSettings* out) {
   out->set_warm_starting(s.warm_starting);
   out->set_block_solver(s.block_solver);
   out->set_speculative_distance(s.speculative_distance);
+  out->set_manifold_reuse_distance(s.manifold_reuse_distance);
   out->set_aabb_margin(s.aabb_margin);
   out->set_max_linear_speed(s.max_linear_speed);
   out->set_enable_sleep(s.enable_sleep);

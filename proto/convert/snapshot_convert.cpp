@@ -205,6 +205,18 @@ void contact_to_proto(const Contact& c, v1::SnapshotContact* out) {
   out->set_edge_b_prev(c.edges[1].prev);
   out->set_edge_b_next(c.edges[1].next);
   out->set_stamp(c.stamp);
+  if (c.cache.valid) {
+    v1::SnapshotManifoldCache* k = out->mutable_cache();
+    put(c.cache.pose.p, k->mutable_pose_position());
+    k->set_pose_cos(c.cache.pose.q.c);
+    k->set_pose_sin(c.cache.pose.q.s);
+    k->set_normal_on_b(c.cache.normal_on_b);
+    put(c.cache.normal, k->mutable_normal());
+    for (int i = 0; i < c.manifold.count; ++i) {
+      put(c.cache.points[i], k->add_points());
+      k->add_separations(c.cache.separations[i]);
+    }
+  }
 }
 
 Status contact_from_proto(const v1::SnapshotContact& p, const std::string& path, Contact* c) {
@@ -234,6 +246,24 @@ Status contact_from_proto(const v1::SnapshotContact& p, const std::string& path,
   c->edges[0] = ContactEdge{p.edge_a_prev(), p.edge_a_next()};
   c->edges[1] = ContactEdge{p.edge_b_prev(), p.edge_b_next()};
   c->stamp = p.stamp();
+  c->cache = ManifoldCache{};
+  if (p.has_cache()) {
+    const v1::SnapshotManifoldCache& k = p.cache();
+    if (k.points_size() != c->manifold.count || k.separations_size() != c->manifold.count) {
+      return data_loss("snapshot: " + path + ".cache: " + std::to_string(k.points_size()) +
+                       " points and " + std::to_string(k.separations_size()) +
+                       " separations for a manifold of " + std::to_string(c->manifold.count));
+    }
+    c->cache.valid = true;
+    c->cache.pose.p = get(k.pose_position());
+    c->cache.pose.q = Rot{k.pose_cos(), k.pose_sin()};
+    c->cache.normal_on_b = k.normal_on_b();
+    c->cache.normal = get(k.normal());
+    for (int i = 0; i < c->manifold.count; ++i) {
+      c->cache.points[i] = get(k.points(i));
+      c->cache.separations[i] = k.separations(i);
+    }
+  }
   return {};
 }
 

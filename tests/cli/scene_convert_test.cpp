@@ -126,6 +126,8 @@ std::string diff_settings(const WorldSettings& a, const WorldSettings& b) {
   RETURN_IF_DIFF(diff_value(p + ".block_solver", a.block_solver, b.block_solver));
   RETURN_IF_DIFF(
       diff_double(p + ".speculative_distance", a.speculative_distance, b.speculative_distance));
+  RETURN_IF_DIFF(diff_double(p + ".manifold_reuse_distance", a.manifold_reuse_distance,
+                             b.manifold_reuse_distance));
   RETURN_IF_DIFF(diff_double(p + ".aabb_margin", a.aabb_margin, b.aabb_margin));
   RETURN_IF_DIFF(diff_double(p + ".max_linear_speed", a.max_linear_speed, b.max_linear_speed));
   RETURN_IF_DIFF(diff_value(p + ".enable_sleep", a.enable_sleep, b.enable_sleep));
@@ -257,6 +259,7 @@ SceneDef AwkwardScene() {
   s.warm_starting = false;
   s.block_solver = false;
   s.speculative_distance = 0.030000000000000002;
+  s.manifold_reuse_distance = 0.0;
   s.aabb_margin = 0.0;
   s.max_linear_speed = 123.456;
   s.enable_sleep = false;

@@ -129,6 +129,27 @@ TEST(SnapshotFile, DamagedFilesAreRefused) {
   EXPECT_EQ(target.state_hash(), before);
 }
 
+// A kept manifold (ManifoldCache) travels with its contact; one whose points do not match the
+// manifold's is refused, naming the contact.
+TEST(SnapshotFile, KeptManifoldsTravelAndBadOnesAreRefused) {
+  World w = build("many_pyramids");
+  for (int i = 0; i < 30; ++i) w.step();
+  v1::Snapshot proto = snapshot_to_proto(w.snapshot());
+  int kept = -1;
+  for (int i = 0; i < proto.contacts_size() && kept < 0; ++i) {
+    if (proto.contacts(i).has_cache()) kept = i;
+  }
+  ASSERT_GE(kept, 0);
+  ASSERT_TRUE(snapshot_from_proto(proto).ok());
+  proto.mutable_contacts(kept)->mutable_cache()->add_separations(0.0);
+  Result<WorldSnapshot> bad = snapshot_from_proto(proto);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.status().code(), StatusCode::kDataLoss);
+  EXPECT_NE(bad.status().message().find("contacts[" + std::to_string(kept) + "].cache"),
+            std::string::npos)
+      << bad.status().message();
+}
+
 // Deltas rebuild the next snapshot exactly; sleeping bodies cost nothing and a moving body
 // about 64 bytes of body data.
 TEST(SnapshotDelta, RebuildsExactlyAndIsCompact) {

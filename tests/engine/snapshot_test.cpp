@@ -184,6 +184,24 @@ TEST(Snapshot, CorruptSnapshotsAreRefusedAndChangeNothing) {
            if (c.alive) c.manifold.count = 3;
          }
        }},
+      {"cache.normal",
+       [](WorldSnapshot& s) {
+         for (Contact& c : s.contacts) {
+           if (c.alive && c.manifold.count > 0) {
+             c.cache.valid = true;
+             c.cache.normal.x() = std::nan("");
+           }
+         }
+       }},
+      {"cache is kept for a manifold without points",
+       [](WorldSnapshot& s) {
+         for (Contact& c : s.contacts) {
+           if (c.alive) {
+             c.cache.valid = true;
+             c.manifold.count = 0;
+           }
+         }
+       }},
       {"joint", [](WorldSnapshot& s) { s.joints[0].body_b = s.joints[0].body_a; }},
       {"settings", [](WorldSnapshot& s) { s.settings.dt = -1.0; }},
       {"awake_bodies", [](WorldSnapshot& s) { s.awake_bodies.push_back(-4); }},

@@ -36,6 +36,19 @@ struct Manifold {
   int count = 0;  // 0: not touching (no point closer than the speculative distance)
 };
 
+// A touching manifold as the shapes last gave it, in A's frame, with the pose of B in A's frame
+// it was found at. While B moves little relative to A the narrow phase moves this manifold with
+// the bodies instead of colliding the shapes again (WorldSettings::manifold_reuse_distance).
+// Only manifolds of flat shapes whose normal is a face normal are kept.
+struct ManifoldCache {
+  bool valid = false;
+  bool normal_on_b = false;    // the normal is B's face's and turns with B (else A's)
+  Transform pose;              // B's body frame in A's when the manifold was found
+  Vec2 normal = Vec2::Zero();  // in A's frame then
+  Vec2 points[2] = {Vec2::Zero(), Vec2::Zero()};  // in A's frame, manifold.count of them
+  double separations[2] = {0.0, 0.0};             // m, as found
+};
+
 inline constexpr int kNullIndex = -1;
 
 struct Body {
@@ -154,6 +167,7 @@ struct Contact {
   double friction = 0.0, restitution = 0.0;  // mixed once at creation
   Manifold manifold;
   ContactEdge edges[2];
+  ManifoldCache cache;
 };
 
 // A whole world: definitions and settings, dynamic state and the solver's warm-start cache
