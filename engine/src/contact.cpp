@@ -279,7 +279,12 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
     overlap[k] = kOverlap;
     const Body& ba = bodies[c.body_a];
     const Body& bb = bodies[c.body_b];
-    const bool reusable = reuse > 0.0 && !c.sensor && flat(sa.geometry) && flat(sb.geometry);
+    // How far the bodies' centres close or slide in one tick. A pair moving faster than the
+    // reuse distance a tick would move past it by the next: its manifold is neither tried nor
+    // kept (a speed test only; the drift since a manifold was found decides).
+    const double travel = settings.dt * length(bb.v - ba.v);
+    const bool reusable =
+        reuse > 0.0 && travel <= reuse && !c.sensor && flat(sa.geometry) && flat(sb.geometry);
     if (reusable) {
       // The smaller shape's size, from its fat box: width + height is at least its diameter.
       const AABB& fa = fat_boxes[c.shape_a];
@@ -300,7 +305,7 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
     }
     // Points are kept as far out as the bodies can close in one tick, so that the solver sees
     // a fast body's contact before it arrives (speculative contact).
-    double reach = speculative + settings.dt * length(bb.v - ba.v);
+    const double reach = speculative + travel;
     c.manifold = fulcrum::collide(sa.geometry, ba.xf, sb.geometry, bb.xf, c.sensor ? 0.0 : reach);
     // Warm starting: a point that keeps its feature id keeps its accumulated impulses.
     for (int i = 0; i < c.manifold.count; ++i) {
