@@ -40,15 +40,6 @@ SceneDef loaded_plank(int balls) {
   return s;
 }
 
-SceneDef pyramid(int base) {
-  SceneDef s;
-  scenes::add_ground(&s, 40.0);
-  scenes::PyramidOptions p;
-  p.base = base;
-  scenes::add_pyramid(&s, p);
-  return s;
-}
-
 // Checks the last tick's colouring of `w` (its world state after the tick is unchanged).
 void expect_valid_colouring(const World& w) {
   const WorldImpl& impl = w.impl();

@@ -48,12 +48,9 @@ bool moved_this_tick(const WorldImpl& impl, const Contact& c) {
          (now.p != c.cache.pose.p || now.q.c != c.cache.pose.q.c || now.q.s != c.cache.pose.q.s);
 }
 
-SceneDef pyramid(int base) {
-  SceneDef s;
-  scenes::add_ground(&s, 40.0);
-  scenes::PyramidOptions p;
-  p.base = base;
-  scenes::add_pyramid(&s, p);
+// A pyramid that never sleeps, so that its contacts are refreshed every tick.
+SceneDef awake_pyramid(int base) {
+  SceneDef s = testing::pyramid(base);
   s.settings.enable_sleep = false;
   return s;
 }
@@ -67,7 +64,7 @@ SceneDef pyramid(int base) {
 // other, a second-order quantity: bounded at 1e-6 m, a thousandth of the drift (measured
 // 2.6e-7 m, against the 5 mm slop the contacts resolve).
 TEST(KeptManifold, AMovedManifoldMatchesAFoundOneToSecondOrder) {
-  World w = build(pyramid(20));
+  World w = build(awake_pyramid(20));
   for (int i = 0; i < 120; ++i) w.step();
   World probe = probe_of(w);
   const WorldImpl& impl = probe.impl();
@@ -137,7 +134,7 @@ TEST(KeptManifold, ASlidingBoxIsFoundAfreshEveryTick) {
 // Circles and rounded polygons are never kept either (their normals turn as they roll or
 // slide, not with a face).
 TEST(KeptManifold, ZeroDistanceOrRoundShapesKeepNothing) {
-  SceneDef off = pyramid(10);
+  SceneDef off = awake_pyramid(10);
   off.settings.manifold_reuse_distance = 0.0;
   SceneDef round;
   scenes::add_ground(&round, 40.0);
@@ -175,7 +172,7 @@ TEST(KeptManifold, ZeroDistanceOrRoundShapesKeepNothing) {
 // which snapshot_test and the scene round trips check) continues bit for bit, and so does one
 // stepped on several threads.
 TEST(KeptManifold, ARestoredOrThreadedWorldContinuesBitForBit) {
-  World w = build(pyramid(12));
+  World w = build(awake_pyramid(12));
   for (int i = 0; i < 40; ++i) w.step();
   World restored(w.settings());
   ASSERT_TRUE(restored.restore(w.snapshot()).ok());

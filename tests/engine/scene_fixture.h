@@ -32,6 +32,16 @@ inline World build(const char* name) {
   return build(scene(name));
 }
 
+// A pyramid of `base` unit boxes on a 40 m ground, at the default settings.
+inline SceneDef pyramid(int base) {
+  SceneDef s;
+  scenes::add_ground(&s, 40.0);
+  scenes::PyramidOptions p;
+  p.base = base;
+  scenes::add_pyramid(&s, p);
+  return s;
+}
+
 inline std::vector<Vec2> centers(const World& w) {
   std::vector<Vec2> out;
   for (BodyId id : w.bodies()) out.push_back(w.body_state(id)->center);
