@@ -76,23 +76,23 @@ bool flat(const Geometry& g) {
 // Keeps a new touching manifold for reuse when its normal is a face normal of A or of B (the
 // face that will turn with its body); a normal between closest points (corners meeting) is not
 // kept, since it turns as the corners slide.
-void cache_manifold(Contact& c, const Geometry& ga, const Transform& xfa, const Geometry& gb,
-                    const Transform& xfb) {
+void cache_manifold(const Contact& c, const Geometry& ga, const Transform& xfa, const Geometry& gb,
+                    const Transform& xfb, ManifoldCache& cache) {
   if (c.manifold.count == 0) return;
   const Vec2 n = xfa.q.inv_rotate(c.manifold.normal);
   if (face_normal(ga, n)) {
-    c.cache.normal_on_b = false;
+    cache.normal_on_b = false;
   } else if (face_normal(gb, -xfb.q.inv_rotate(c.manifold.normal))) {
-    c.cache.normal_on_b = true;
+    cache.normal_on_b = true;
   } else {
     return;
   }
-  c.cache.valid = true;
-  c.cache.pose = inv_mul(xfa, xfb);
-  c.cache.normal = n;
+  cache.valid = true;
+  cache.pose = inv_mul(xfa, xfb);
+  cache.normal = n;
   for (int i = 0; i < c.manifold.count; ++i) {
-    c.cache.points[i] = xfa.inv_apply(c.manifold.points[i].point);
-    c.cache.separations[i] = c.manifold.points[i].separation;
+    cache.points[i] = xfa.inv_apply(c.manifold.points[i].point);
+    cache.separations[i] = c.manifold.points[i].separation;
   }
 }
 
@@ -104,25 +104,25 @@ void cache_manifold(Contact& c, const Geometry& ga, const Transform& xfa, const 
 // between the surfaces) moved by d = turn x + shift - x with B; to first order the surfaces'
 // gap along the normal grew by d . n, as the solver's substeps reckon it within a tick. The
 // normal turns with the body whose face it is. The points keep their ids and impulses.
-bool reuse_manifold(Contact& c, const Transform& xfa, const Transform& xfb, double size,
-                    double reuse) {
-  if (!c.cache.valid || c.manifold.count == 0) return false;
+bool reuse_manifold(const ManifoldCache& cache, const Transform& xfa, const Transform& xfb,
+                    double size, double reuse, Contact& c) {
+  if (!cache.valid || c.manifold.count == 0) return false;
   const Transform pose = inv_mul(xfa, xfb);
   // The relative motion since: x -> turn x + shift, in A's frame.
-  const Rot turn = inv_mul(c.cache.pose.q, pose.q);
+  const Rot turn = inv_mul(cache.pose.q, pose.q);
   if (!(turn.c > 0.0) || std::abs(turn.s) * size > reuse) return false;
-  const Vec2 shift = pose.p - turn.rotate(c.cache.pose.p);
+  const Vec2 shift = pose.p - turn.rotate(cache.pose.p);
   Vec2 moved[2];
   for (int i = 0; i < c.manifold.count; ++i) {
-    moved[i] = turn.rotate(c.cache.points[i]) + shift - c.cache.points[i];
+    moved[i] = turn.rotate(cache.points[i]) + shift - cache.points[i];
     if (!(moved[i].squaredNorm() <= reuse * reuse)) return false;
   }
-  const Vec2 n = c.cache.normal_on_b ? turn.rotate(c.cache.normal) : c.cache.normal;
+  const Vec2 n = cache.normal_on_b ? turn.rotate(cache.normal) : cache.normal;
   c.manifold.normal = xfa.q.rotate(n);
   for (int i = 0; i < c.manifold.count; ++i) {
     ManifoldPoint& p = c.manifold.points[i];
-    p.separation = c.cache.separations[i] + dot(moved[i], n);
-    p.point = xfa.apply(c.cache.points[i] + 0.5 * moved[i]);
+    p.separation = cache.separations[i] + dot(moved[i], n);
+    p.point = xfa.apply(cache.points[i] + 0.5 * moved[i]);
     p.persisted = true;
   }
   return true;
@@ -150,9 +150,11 @@ void WorldImpl::create_contact(int sa, int sb) {
   } else {
     ci = static_cast<int>(contacts.size());
     contacts.emplace_back();
+    manifold_caches.emplace_back();
   }
   Contact& c = contacts[ci];
   c = Contact{};
+  manifold_caches[ci].valid = false;
   c.alive = true;
   c.shape_a = sa;
   c.shape_b = sb;
@@ -291,7 +293,7 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
       const AABB& fb = fat_boxes[c.shape_b];
       const Vec2 ea = fa.upper - fa.lower, eb = fb.upper - fb.lower;
       const double size = std::min(ea.x() + ea.y(), eb.x() + eb.y());
-      if (reuse_manifold(c, ba.xf, bb.xf, size, reuse)) return;
+      if (reuse_manifold(manifold_caches[list[k]], ba.xf, bb.xf, size, reuse, c)) return;
     }
     // What warm starting needs of the old points: their ids and impulses.
     struct Kept {
@@ -319,8 +321,9 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
         }
       }
     }
-    c.cache.valid = false;
-    if (reusable) cache_manifold(c, sa.geometry, ba.xf, sb.geometry, bb.xf);
+    ManifoldCache& cache = manifold_caches[list[k]];
+    cache.valid = false;
+    if (reusable) cache_manifold(c, sa.geometry, ba.xf, sb.geometry, bb.xf, cache);
   };
   constexpr size_t kContactsPerChunk = 64;
   const int chunks = static_cast<int>((list.size() + kContactsPerChunk - 1) / kContactsPerChunk);

@@ -28,6 +28,7 @@ WorldSnapshot World::snapshot() const {
     shape.proxy = kNullIndex;
   }
   s.contacts = w.contacts;
+  s.manifold_caches = w.manifold_caches;
   s.free_contacts = w.free_contacts;
   s.joints = w.joints;
   s.free_joints = w.free_joints;
@@ -209,7 +210,7 @@ Status check_contact(const WorldSnapshot& s, size_t ci) {
       FULCRUM_RETURN_IF_ERROR(check_number(field, x));
     }
   }
-  const ManifoldCache& k = c.cache;
+  const ManifoldCache& k = s.manifold_caches[ci];
   if (!k.valid) return {};
   if (c.manifold.count == 0) {
     return corrupt(at("contact", ci, "cache") + " is kept for a manifold without points");
@@ -348,6 +349,9 @@ Status check_snapshot(const WorldSnapshot& s) {
   if (s.shape_boxes.size() != s.shapes.size()) {
     return corrupt("shape_boxes: one box per shape slot expected");
   }
+  if (s.manifold_caches.size() != s.contacts.size()) {
+    return corrupt("manifold_caches: one per contact slot expected");
+  }
   FULCRUM_RETURN_IF_ERROR(check_free_list("free_bodies", s.free_bodies, s.bodies));
   FULCRUM_RETURN_IF_ERROR(check_free_list("free_shapes", s.free_shapes, s.shapes));
   FULCRUM_RETURN_IF_ERROR(check_free_list("free_contacts", s.free_contacts, s.contacts));
@@ -400,6 +404,7 @@ Status World::restore(const WorldSnapshot& s) {
   w.shapes = s.shapes;
   w.free_shapes = s.free_shapes;
   w.contacts = s.contacts;
+  w.manifold_caches = s.manifold_caches;
   w.free_contacts = s.free_contacts;
   for (size_t ci = 0; ci < w.contacts.size(); ++ci) {
     const Contact& c = w.contacts[ci];

@@ -73,7 +73,8 @@ uint64_t World::state_hash() const {
     h.add(static_cast<uint64_t>(s.generation));
   }
   h.add(static_cast<uint64_t>(w.contacts.size()));
-  for (const Contact& c : w.contacts) {
+  for (size_t ci = 0; ci < w.contacts.size(); ++ci) {
+    const Contact& c = w.contacts[ci];
     h.add(c.alive);
     if (!c.alive) continue;
     h.add(c.shape_a);
@@ -91,16 +92,17 @@ uint64_t World::state_hash() const {
     }
     // The kept manifold decides the next ticks' manifolds: two copies that differ only here
     // would part later.
-    h.add(c.cache.valid);
-    if (c.cache.valid) {
-      h.add(c.cache.normal_on_b);
-      h.add(c.cache.pose.p);
-      h.add(c.cache.pose.q.c);
-      h.add(c.cache.pose.q.s);
-      h.add(c.cache.normal);
+    const ManifoldCache& kept = w.manifold_caches[ci];
+    h.add(kept.valid);
+    if (kept.valid) {
+      h.add(kept.normal_on_b);
+      h.add(kept.pose.p);
+      h.add(kept.pose.q.c);
+      h.add(kept.pose.q.s);
+      h.add(kept.normal);
       for (int i = 0; i < c.manifold.count; ++i) {
-        h.add(c.cache.points[i]);
-        h.add(c.cache.separations[i]);
+        h.add(kept.points[i]);
+        h.add(kept.separations[i]);
       }
     }
   }

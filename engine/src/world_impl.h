@@ -51,6 +51,7 @@ class WorldImpl {
   std::vector<Shape> shapes;
   std::vector<int> free_shapes;
   std::vector<Contact> contacts;
+  std::vector<ManifoldCache> manifold_caches;  // one per contact slot (contact.cpp)
   std::vector<int> free_contacts;
   std::vector<Joint> joints;
   std::vector<int> free_joints;

@@ -178,7 +178,7 @@ Status shape_from_proto(const v1::SnapshotShape& p, const std::string& path, Sha
   return {};
 }
 
-void contact_to_proto(const Contact& c, v1::SnapshotContact* out) {
+void contact_to_proto(const Contact& c, const ManifoldCache& kept, v1::SnapshotContact* out) {
   out->set_alive(c.alive);
   if (!c.alive) return;
   out->set_touching(c.touching);
@@ -205,21 +205,22 @@ void contact_to_proto(const Contact& c, v1::SnapshotContact* out) {
   out->set_edge_b_prev(c.edges[1].prev);
   out->set_edge_b_next(c.edges[1].next);
   out->set_stamp(c.stamp);
-  if (c.cache.valid) {
+  if (kept.valid) {
     v1::SnapshotManifoldCache* k = out->mutable_cache();
-    put(c.cache.pose.p, k->mutable_pose_position());
-    k->set_pose_cos(c.cache.pose.q.c);
-    k->set_pose_sin(c.cache.pose.q.s);
-    k->set_normal_on_b(c.cache.normal_on_b);
-    put(c.cache.normal, k->mutable_normal());
+    put(kept.pose.p, k->mutable_pose_position());
+    k->set_pose_cos(kept.pose.q.c);
+    k->set_pose_sin(kept.pose.q.s);
+    k->set_normal_on_b(kept.normal_on_b);
+    put(kept.normal, k->mutable_normal());
     for (int i = 0; i < c.manifold.count; ++i) {
-      put(c.cache.points[i], k->add_points());
-      k->add_separations(c.cache.separations[i]);
+      put(kept.points[i], k->add_points());
+      k->add_separations(kept.separations[i]);
     }
   }
 }
 
-Status contact_from_proto(const v1::SnapshotContact& p, const std::string& path, Contact* c) {
+Status contact_from_proto(const v1::SnapshotContact& p, const std::string& path, Contact* c,
+                          ManifoldCache* kept) {
   c->alive = p.alive();
   if (!c->alive) return {};
   c->touching = p.touching();
@@ -246,7 +247,7 @@ Status contact_from_proto(const v1::SnapshotContact& p, const std::string& path,
   c->edges[0] = ContactEdge{p.edge_a_prev(), p.edge_a_next()};
   c->edges[1] = ContactEdge{p.edge_b_prev(), p.edge_b_next()};
   c->stamp = p.stamp();
-  c->cache = ManifoldCache{};
+  *kept = ManifoldCache{};
   if (p.has_cache()) {
     const v1::SnapshotManifoldCache& k = p.cache();
     if (k.points_size() != c->manifold.count || k.separations_size() != c->manifold.count) {
@@ -254,14 +255,14 @@ Status contact_from_proto(const v1::SnapshotContact& p, const std::string& path,
                        " points and " + std::to_string(k.separations_size()) +
                        " separations for a manifold of " + std::to_string(c->manifold.count));
     }
-    c->cache.valid = true;
-    c->cache.pose.p = get(k.pose_position());
-    c->cache.pose.q = Rot{k.pose_cos(), k.pose_sin()};
-    c->cache.normal_on_b = k.normal_on_b();
-    c->cache.normal = get(k.normal());
+    kept->valid = true;
+    kept->pose.p = get(k.pose_position());
+    kept->pose.q = Rot{k.pose_cos(), k.pose_sin()};
+    kept->normal_on_b = k.normal_on_b();
+    kept->normal = get(k.normal());
     for (int i = 0; i < c->manifold.count; ++i) {
-      c->cache.points[i] = get(k.points(i));
-      c->cache.separations[i] = k.separations(i);
+      kept->points[i] = get(k.points(i));
+      kept->separations[i] = k.separations(i);
     }
   }
   return {};
@@ -392,7 +393,9 @@ v1::Snapshot snapshot_to_proto(const WorldSnapshot& s) {
     shape_to_proto(s.shapes[i], s.shape_boxes[i], out.add_shapes());
   }
   for (int i : s.free_shapes) out.add_free_shapes(i);
-  for (const Contact& c : s.contacts) contact_to_proto(c, out.add_contacts());
+  for (size_t i = 0; i < s.contacts.size(); ++i) {
+    contact_to_proto(s.contacts[i], s.manifold_caches[i], out.add_contacts());
+  }
   for (int i : s.free_contacts) out.add_free_contacts(i);
   for (const Joint& j : s.joints) joint_to_proto(j, out.add_joints());
   for (int i : s.free_joints) out.add_free_joints(i);
@@ -437,9 +440,10 @@ Result<WorldSnapshot> snapshot_from_proto(const v1::Snapshot& p) {
   }
   s.free_shapes = ints(p.free_shapes());
   s.contacts.resize(p.contacts_size());
+  s.manifold_caches.resize(p.contacts_size());
   for (int i = 0; i < p.contacts_size(); ++i) {
-    Status st =
-        contact_from_proto(p.contacts(i), "contacts[" + std::to_string(i) + "]", &s.contacts[i]);
+    Status st = contact_from_proto(p.contacts(i), "contacts[" + std::to_string(i) + "]",
+                                   &s.contacts[i], &s.manifold_caches[i]);
     if (!st.ok()) return st;
   }
   s.free_contacts = ints(p.free_contacts());

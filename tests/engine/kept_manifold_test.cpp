@@ -42,10 +42,12 @@ Manifold fresh(const WorldImpl& impl, const Contact& c) {
 
 // Whether the contact's manifold was moved, not found, in the probe's narrow phase: a found one
 // is kept with the poses it was found at.
-bool moved_this_tick(const WorldImpl& impl, const Contact& c) {
+bool moved_this_tick(const WorldImpl& impl, size_t ci) {
+  const Contact& c = impl.contacts[ci];
+  const ManifoldCache& kept = impl.manifold_caches[ci];
   const Transform now = inv_mul(impl.bodies[c.body_a].xf, impl.bodies[c.body_b].xf);
-  return c.cache.valid &&
-         (now.p != c.cache.pose.p || now.q.c != c.cache.pose.q.c || now.q.s != c.cache.pose.q.s);
+  return kept.valid &&
+         (now.p != kept.pose.p || now.q.c != kept.pose.q.c || now.q.s != kept.pose.q.s);
 }
 
 // A pyramid that never sleeps, so that its contacts are refreshed every tick.
@@ -70,10 +72,11 @@ TEST(KeptManifold, AMovedManifoldMatchesAFoundOneToSecondOrder) {
   const WorldImpl& impl = probe.impl();
   int touching = 0, moved = 0;
   double worst_separation = 0.0, worst_normal = 0.0, worst_point = 0.0;
-  for (const Contact& c : impl.contacts) {
+  for (size_t ci = 0; ci < impl.contacts.size(); ++ci) {
+    const Contact& c = impl.contacts[ci];
     if (!c.alive || c.manifold.count == 0) continue;
     ++touching;
-    if (!moved_this_tick(impl, c)) continue;
+    if (!moved_this_tick(impl, ci)) continue;
     ++moved;
     const Manifold f = fresh(impl, c);
     ASSERT_EQ(f.count, c.manifold.count);
@@ -113,10 +116,11 @@ TEST(KeptManifold, ASlidingBoxIsFoundAfreshEveryTick) {
     World probe = probe_of(w);
     const WorldImpl& impl = probe.impl();
     int touching = 0;
-    for (const Contact& c : impl.contacts) {
+    for (size_t ci = 0; ci < impl.contacts.size(); ++ci) {
+      const Contact& c = impl.contacts[ci];
       if (!c.alive || c.manifold.count == 0) continue;
       ++touching;
-      EXPECT_FALSE(moved_this_tick(impl, c)) << "tick " << i;
+      EXPECT_FALSE(moved_this_tick(impl, ci)) << "tick " << i;
       const Manifold f = fresh(impl, c);
       ASSERT_EQ(f.count, c.manifold.count);
       EXPECT_EQ(f.normal, c.manifold.normal);
@@ -158,10 +162,12 @@ TEST(KeptManifold, ZeroDistanceOrRoundShapesKeepNothing) {
     int touching = 0;
     for (int i = 0; i < 60; ++i) {
       w.step();
-      for (const Contact& c : w.impl().contacts) {
+      const WorldImpl& impl = w.impl();
+      for (size_t ci = 0; ci < impl.contacts.size(); ++ci) {
+        const Contact& c = impl.contacts[ci];
         if (!c.alive || c.manifold.count == 0) continue;
         ++touching;
-        ASSERT_FALSE(c.cache.valid) << "tick " << i;
+        ASSERT_FALSE(impl.manifold_caches[ci].valid) << "tick " << i;
       }
     }
     EXPECT_GT(touching, 60);

@@ -186,19 +186,19 @@ TEST(Snapshot, CorruptSnapshotsAreRefusedAndChangeNothing) {
        }},
       {"cache.normal",
        [](WorldSnapshot& s) {
-         for (Contact& c : s.contacts) {
-           if (c.alive && c.manifold.count > 0) {
-             c.cache.valid = true;
-             c.cache.normal.x() = std::nan("");
+         for (size_t i = 0; i < s.contacts.size(); ++i) {
+           if (s.contacts[i].alive && s.contacts[i].manifold.count > 0) {
+             s.manifold_caches[i].valid = true;
+             s.manifold_caches[i].normal.x() = std::nan("");
            }
          }
        }},
       {"cache is kept for a manifold without points",
        [](WorldSnapshot& s) {
-         for (Contact& c : s.contacts) {
-           if (c.alive) {
-             c.cache.valid = true;
-             c.manifold.count = 0;
+         for (size_t i = 0; i < s.contacts.size(); ++i) {
+           if (s.contacts[i].alive) {
+             s.manifold_caches[i].valid = true;
+             s.contacts[i].manifold.count = 0;
            }
          }
        }},

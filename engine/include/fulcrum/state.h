@@ -39,7 +39,8 @@ struct Manifold {
 // A touching manifold as the shapes last gave it, in A's frame, with the pose of B in A's frame
 // it was found at. While B moves little relative to A the narrow phase moves this manifold with
 // the bodies instead of colliding the shapes again (WorldSettings::manifold_reuse_distance).
-// Only manifolds of flat shapes whose normal is a face normal are kept.
+// Only manifolds of flat shapes whose normal is a face normal are kept. Kept beside the contacts,
+// one per contact slot, so that the loops over contacts do not carry it.
 struct ManifoldCache {
   bool valid = false;
   bool normal_on_b = false;    // the normal is B's face's and turns with B (else A's)
@@ -167,7 +168,6 @@ struct Contact {
   double friction = 0.0, restitution = 0.0;  // mixed once at creation
   Manifold manifold;
   ContactEdge edges[2];
-  ManifoldCache cache;
 };
 
 // A whole world: definitions and settings, dynamic state and the solver's warm-start cache
@@ -183,6 +183,7 @@ struct WorldSnapshot {
   std::vector<int> free_shapes;
   std::vector<AABB> shape_boxes;  // broad-phase fat box of each live shape (dead: empty box)
   std::vector<Contact> contacts;
+  std::vector<ManifoldCache> manifold_caches;  // one per contact slot
   std::vector<int> free_contacts;
   std::vector<Joint> joints;
   std::vector<int> free_joints;
