@@ -132,6 +132,78 @@ bool WorldImpl::should_collide(int sa, int sb) const {
   return ba.joints.empty() || bb.joints.empty() || !joint_blocks_contact(a.body, b.body);
 }
 
+// When at least half the moving tree's leaves moved (a pile flying apart, a rain of bodies), the
+// new pairs are found by walking each tree with the moving tree (DynamicTree::join) instead of
+// querying it once per moved shape: each overlapping pair of leaves is met once, and kept when
+// either leaf moved. The pairs are those the queries find: a pair enters neither way unless its
+// boxes overlap and its filter bits pass both ways. A moved shape of a positive group meets its
+// group whatever the bits, which the walk cannot see: then the queries are used. Returns false,
+// having done nothing, when the queries are to be used; else fills scratch_pairs (or stops once
+// `found` passes `room`, as the queries do).
+bool WorldImpl::join_moves(int64_t room, std::atomic<int64_t>& found) {
+  const size_t moved = move_buffer.size();
+  if (2 * moved < static_cast<size_t>(tree.proxy_count()) || moved < 256) return false;
+  for (int si : move_buffer) {
+    if (shapes[si].filter.group_index > 0) return false;
+  }
+  // Which leaves moved, by proxy, in each tree.
+  std::vector<uint8_t>& moved_leaf = scratch_moved_leaf;
+  std::vector<uint8_t>& moved_static_leaf = scratch_moved_static_leaf;
+  moved_leaf.assign(tree.node_capacity(), 0);
+  moved_static_leaf.assign(static_tree.node_capacity(), 0);
+  for (int si : move_buffer) {
+    const Shape& s = shapes[si];
+    (&tree_of(s) == &tree ? moved_leaf : moved_static_leaf)[s.proxy] = 1;
+  }
+  // The moving tree with itself, then with the static tree; each task keeps its own list.
+  constexpr int kTasks = 16;
+  const std::vector<DynamicTree::JoinTask> self = tree.join_tasks(tree, pool ? kTasks : 1);
+  const std::vector<DynamicTree::JoinTask> cross = tree.join_tasks(static_tree, pool ? kTasks : 1);
+  const int tasks = static_cast<int>(self.size() + cross.size());
+  if (static_cast<int>(scratch_chunk_pairs.size()) < tasks) scratch_chunk_pairs.resize(tasks);
+  auto task = [&](int i) {
+    std::vector<std::pair<int, int>>& out = scratch_chunk_pairs[i];
+    out.clear();
+    const bool is_self = i < static_cast<int>(self.size());
+    const DynamicTree& other = is_self ? tree : static_tree;
+    const std::vector<uint8_t>& other_moved = is_self ? moved_leaf : moved_static_leaf;
+    // As in the queries, the pair set is asked in batches, each lookup fetched as it is found.
+    constexpr int kBatch = 32;
+    std::pair<int, int> batch[kBatch];
+    int batched = 0;
+    bool more = found.load(std::memory_order_relaxed) <= room;
+    auto take_batch = [&]() {
+      for (int k = 0; k < batched && more; ++k) {
+        const auto [sa, sb] = batch[k];
+        if (contact_pairs.contains(pair_key(sa, sb))) continue;
+        if (!should_collide(sa, sb)) continue;
+        out.emplace_back(std::min(sa, sb), std::max(sa, sb));
+        more = found.fetch_add(1, std::memory_order_relaxed) < room;
+      }
+      batched = 0;
+      return more;
+    };
+    const DynamicTree::JoinTask t = is_self ? self[i] : cross[i - self.size()];
+    tree.join(other, t, [&](int a, int b) {
+      if (!moved_leaf[a] && !other_moved[b]) return true;
+      const int sa = static_cast<int>(tree.user_data(a));
+      const int sb = static_cast<int>(other.user_data(b));
+      contact_pairs.prefetch(pair_key(sa, sb));
+      batch[batched++] = {sa, sb};
+      return batched < kBatch || take_batch();
+    });
+    take_batch();
+  };
+  run_chunks(pool, tasks, task, true);
+  if (found.load() <= room) {
+    for (int i = 0; i < tasks; ++i) {
+      scratch_pairs.insert(scratch_pairs.end(), scratch_chunk_pairs[i].begin(),
+                           scratch_chunk_pairs[i].end());
+    }
+  }
+  return true;
+}
+
 int64_t WorldImpl::update_pairs() {
   if (move_buffer.empty()) return 0;
   // Collect the new pairs that may collide (lower shape index first), sorted so that contacts
@@ -196,7 +268,9 @@ int64_t WorldImpl::update_pairs() {
   };
   constexpr size_t kShapesPerChunk = 64;
   const size_t moved = move_buffer.size();
-  if (pool != nullptr && moved >= 4 * kShapesPerChunk) {
+  if (join_moves(room, found)) {
+    // Found by walking the trees together (join_moves), in pairs of moved shapes' lists.
+  } else if (pool != nullptr && moved >= 4 * kShapesPerChunk) {
     const int chunks = static_cast<int>((moved + kShapesPerChunk - 1) / kShapesPerChunk);
     scratch_chunk_pairs.resize(chunks);
     auto chunk = [&](int i) {

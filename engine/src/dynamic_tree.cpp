@@ -97,6 +97,53 @@ void DynamicTree::set_leaf_filter(int proxy_id, uint64_t category_bits, uint64_t
   }
 }
 
+std::vector<DynamicTree::JoinTask> DynamicTree::join_tasks(const DynamicTree& other,
+                                                           int want) const {
+  std::vector<JoinTask> tasks;
+  const bool self = &other == this;
+  if (root_ == kNullNode || other.root_ == kNullNode) return tasks;
+  if (self) {
+    tasks.push_back({root_, root_});
+  } else if (may_pair(nodes_[root_], other.nodes_[other.root_])) {
+    tasks.push_back({root_, other.root_});
+  }
+  // Each round splits every task that can be split, in order, so the tasks depend only on the
+  // trees. A self task yields its two children's self tasks and their pair; a pair task, the
+  // pairs of the taller side's children with the other side.
+  std::vector<JoinTask> next;
+  while (static_cast<int>(tasks.size()) < want) {
+    next.clear();
+    bool split = false;
+    auto add_pair = [&](int a, int b) {
+      if (may_pair(nodes_[a], other.nodes_[b])) next.push_back({a, b});
+    };
+    for (const JoinTask& t : tasks) {
+      const Node& na = nodes_[t.a];
+      const Node& nb = other.nodes_[t.b];
+      if (self && t.a == t.b) {
+        if (na.is_leaf()) continue;  // no pairs within one leaf
+        next.push_back({na.child1, na.child1});
+        next.push_back({na.child2, na.child2});
+        add_pair(na.child1, na.child2);
+        split = true;
+      } else if (na.is_leaf() && nb.is_leaf()) {
+        next.push_back(t);
+      } else if (nb.is_leaf() || (!na.is_leaf() && na.height >= nb.height)) {
+        add_pair(na.child1, t.b);
+        add_pair(na.child2, t.b);
+        split = true;
+      } else {
+        add_pair(t.a, nb.child1);
+        add_pair(t.a, nb.child2);
+        split = true;
+      }
+    }
+    tasks.swap(next);
+    if (!split) break;
+  }
+  return tasks;
+}
+
 void DynamicTree::rebuild(WorkerPool* pool) {
   if (root_ == kNullNode) return;
   // The leaves in id order, and every internal node freed, in one pass over the nodes: a build

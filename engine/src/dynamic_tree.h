@@ -60,8 +60,22 @@ class DynamicTree {
   template <typename Callback>
   void ray_cast(const RayCastInput& input, Callback&& callback) const;
 
+  // Every pair of overlapping leaves, one of this tree and one of `other` (or, with other being
+  // this tree, every unordered pair of two of its leaves), found by walking the two trees
+  // together: a subtree pair is entered only when the boxes overlap and the filter bits could
+  // pass both ways. When most leaves moved this costs far less than a query per leaf. The work
+  // is split into tasks (join_tasks: at least `want` where the trees allow), each walked by
+  // join(); report(leaf_of_this, leaf_of_other) returns false to stop that task.
+  struct JoinTask {
+    int a, b;  // a == b in a join of a tree with itself: the pairs within a's subtree
+  };
+  std::vector<JoinTask> join_tasks(const DynamicTree& other, int want) const;
+  template <typename Report>
+  void join(const DynamicTree& other, JoinTask task, Report&& report) const;
+
   int height() const;
   int proxy_count() const { return proxy_count_; }
+  int node_capacity() const { return static_cast<int>(nodes_.size()); }
   // Sum of internal node perimeters over the root perimeter (a quality measure).
   double area_ratio() const;
   // Checks parent links, heights and boxes; returns false if the structure is broken.
@@ -81,6 +95,16 @@ class DynamicTree {
     bool is_leaf() const { return child1 == kNullNode; }
   };
   static_assert(sizeof(Node) == 64);
+
+  // Whether two nodes' subtrees may hold a pair join() reports.
+  static bool may_pair(const Node& a, const Node& b) {
+    return (a.category_bits & b.mask_bits) != 0 && (b.category_bits & a.mask_bits) != 0 &&
+           a.aabb.overlaps(b.aabb);
+  }
+  template <typename Report>
+  bool join_pair(const DynamicTree& other, int a, int b, Report& report) const;
+  template <typename Report>
+  bool join_self(int node, Report& report) const;
 
   template <bool kFiltered, typename Callback>
   void walk(const AABB& aabb, uint64_t category_bits, uint64_t mask_bits,

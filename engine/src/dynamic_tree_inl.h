@@ -81,6 +81,36 @@ void DynamicTree::walk(const AABB& aabb, uint64_t category_bits, uint64_t mask_b
   }
 }
 
+template <typename Report>
+bool DynamicTree::join_pair(const DynamicTree& other, int a, int b, Report& report) const {
+  const Node& na = nodes_[a];
+  const Node& nb = other.nodes_[b];
+  if (!may_pair(na, nb)) return true;
+  if (na.is_leaf() && nb.is_leaf()) return static_cast<bool>(report(a, b));
+  // The taller side is split (a tie splits this tree's side).
+  if (nb.is_leaf() || (!na.is_leaf() && na.height >= nb.height)) {
+    return join_pair(other, na.child1, b, report) && join_pair(other, na.child2, b, report);
+  }
+  return join_pair(other, a, nb.child1, report) && join_pair(other, a, nb.child2, report);
+}
+
+template <typename Report>
+bool DynamicTree::join_self(int node, Report& report) const {
+  const Node& n = nodes_[node];
+  if (n.is_leaf()) return true;
+  return join_self(n.child1, report) && join_self(n.child2, report) &&
+         join_pair(*this, n.child1, n.child2, report);
+}
+
+template <typename Report>
+void DynamicTree::join(const DynamicTree& other, JoinTask task, Report&& report) const {
+  if (&other == this && task.a == task.b) {
+    join_self(task.a, report);
+  } else {
+    join_pair(other, task.a, task.b, report);
+  }
+}
+
 template <typename Callback>
 void DynamicTree::ray_cast(const RayCastInput& input, Callback&& callback) const {
   // Also rejects NaN: nothing lies on a segment of negative or undefined length.

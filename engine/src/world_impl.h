@@ -4,6 +4,7 @@
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <cstdint>
 #include <limits>
 #include <optional>
@@ -177,6 +178,7 @@ class WorldImpl {
   // the live contacts past `contact_limit` (> 0) it creates none, keeps the moved shapes
   // buffered and returns the number of live contacts it would have made (else 0).
   int64_t update_pairs();
+  bool join_moves(int64_t room, std::atomic<int64_t>& found);  // update_pairs' walk of trees
   bool should_collide(int shape_a, int shape_b) const;
 
   // --- contacts (contact.cpp) ---
@@ -273,8 +275,9 @@ class WorldImpl {
   int64_t contact_limit = 0;                       // World::set_contact_limit, set by each step
   std::vector<std::pair<int, int>> scratch_pairs;  // broad phase
   std::vector<std::vector<std::pair<int, int>>> scratch_chunk_pairs;
-  std::vector<std::vector<std::pair<int, AABB>>> scratch_moves;  // synchronize_awake
-  std::vector<int> scratch_parent;                               // islands
+  std::vector<uint8_t> scratch_moved_leaf, scratch_moved_static_leaf;  // broad phase (join)
+  std::vector<std::vector<std::pair<int, AABB>>> scratch_moves;        // synchronize_awake
+  std::vector<int> scratch_parent;                                     // islands
   std::vector<double> scratch_rest, scratch_root_rest;
 };
 

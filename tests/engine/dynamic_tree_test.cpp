@@ -384,6 +384,77 @@ TEST(DynamicTree, FilteredQueryIsTheQueryLessTheLeavesWhoseBitsFail) {
   EXPECT_EQ(visited, 0);
 }
 
+// join() over join_tasks() meets every overlapping pair of leaves whose bits pass both ways
+// exactly once: within one tree (unordered pairs of two leaves) and between two trees, with
+// one task or split into many, after inserts, a rebuild and moves.
+TEST(DynamicTree, JoinFindsEachOverlappingPairOnce) {
+  Rng rng(17);
+  DynamicTree a, b;
+  std::map<int, std::pair<uint64_t, uint64_t>> bits_a, bits_b;  // proxy -> (category, mask)
+  auto random_bits = [&] {
+    const uint64_t category = uint64_t{1} << rng.below(4);
+    const uint64_t mask = rng.unit() < 0.3 ? ~uint64_t{0} : ~category & 0xF;
+    return std::make_pair(category, mask);
+  };
+  for (int i = 0; i < 700; ++i) {
+    const auto bits = random_bits();
+    bits_a[a.create_proxy(random_box(rng), 0, bits.first, bits.second)] = bits;
+  }
+  for (int i = 0; i < 300; ++i) {
+    const auto bits = random_bits();
+    bits_b[b.create_proxy(random_box(rng), 0, bits.first, bits.second)] = bits;
+  }
+  using Pairs = std::vector<std::pair<int, int>>;
+  auto brute = [&](const DynamicTree& x, const auto& bx, const DynamicTree& y, const auto& by) {
+    Pairs want;
+    for (const auto& [i, bi] : bx) {
+      for (const auto& [j, bj] : by) {
+        if (&x == &y && j <= i) continue;
+        if ((bi.first & bj.second) == 0 || (bj.first & bi.second) == 0) continue;
+        if (x.fat_aabb(i).overlaps(y.fat_aabb(j))) want.emplace_back(i, j);
+      }
+    }
+    return want;
+  };
+  auto joined = [&](const DynamicTree& x, const DynamicTree& y, int want) {
+    Pairs got;
+    const std::vector<DynamicTree::JoinTask> tasks = x.join_tasks(y, want);
+    if (want > 1) {
+      EXPECT_GE(static_cast<int>(tasks.size()), want);
+    }
+    for (const DynamicTree::JoinTask& t : tasks) {
+      x.join(y, t, [&](int i, int j) {
+        got.emplace_back(&x == &y ? std::min(i, j) : i, &x == &y ? std::max(i, j) : j);
+        return true;
+      });
+    }
+    std::sort(got.begin(), got.end());
+    return got;  // duplicates stay, and fail the comparison
+  };
+  auto check = [&] {
+    const Pairs self = brute(a, bits_a, a, bits_a);
+    const Pairs cross = brute(a, bits_a, b, bits_b);
+    EXPECT_GT(self.size(), 100u);
+    EXPECT_GT(cross.size(), 50u);
+    for (int want : {1, 16}) {
+      EXPECT_EQ(joined(a, a, want), self) << want << " tasks";
+      EXPECT_EQ(joined(a, b, want), cross) << want << " tasks";
+    }
+  };
+  check();
+  for (auto& [id, bits] : bits_a) a.set_leaf_box(id, random_box(rng));
+  a.rebuild();
+  check();
+  for (auto& [id, bits] : bits_b) {
+    if (rng.unit() < 0.5) b.move_proxy(id, random_box(rng));
+  }
+  check();
+  // A report returning false ends its task.
+  int calls = 0;
+  a.join(a, a.join_tasks(a, 1)[0], [&](int, int) { return ++calls < 5; });
+  EXPECT_EQ(calls, 5);
+}
+
 TEST(DynamicTree, ValidateHoldsAfterEveryOperation) {
   Rng rng(3);
   Fixture f;
