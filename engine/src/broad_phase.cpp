@@ -103,11 +103,20 @@ void WorldImpl::synchronize_awake(const std::vector<int>& awake) {
 // costs less than re-inserting each. The tree's shape never reaches the results: pairs and
 // query hits are sorted. Only awake bodies move here, and static bodies are never awake: the
 // moves are all in the moving tree.
+//
+// Rebuilding costs O(n log n); refitting the boxes in place, O(n), but the tree grows worse for
+// queries as leaves drift from the neighbours they were built with. So the boxes are refitted,
+// and the tree rebuilt only once its cost (DynamicTree::cost) has grown by a quarter since the
+// last rebuild.
 void WorldImpl::commit_moves() {
   const size_t threshold = std::max<size_t>(64, static_cast<size_t>(tree.proxy_count()) / 8);
   if (pending_moves.size() >= threshold) {
     for (const auto& [proxy, box] : pending_moves) tree.set_leaf_box(proxy, box);
-    tree.rebuild(pool);
+    constexpr double kRefitSlack = 1.25;
+    if (!(tree.refit_all() <= kRefitSlack * tree_built_cost)) {
+      tree.rebuild(pool);
+      tree_built_cost = tree.cost();
+    }
   } else {
     for (const auto& [proxy, box] : pending_moves) tree.move_proxy(proxy, box);
   }

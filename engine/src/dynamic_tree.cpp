@@ -4,6 +4,7 @@
 #include <cassert>
 #include <cstdlib>
 #include <initializer_list>
+#include <limits>
 
 #include "worker_pool.h"
 
@@ -448,6 +449,35 @@ void DynamicTree::balance(int index) {
 
 int DynamicTree::height() const {
   return root_ == kNullNode ? 0 : nodes_[root_].height;
+}
+
+void DynamicTree::refit_subtree(int index, double& internal, double& leaves) {
+  const Node& node = nodes_[index];
+  if (node.is_leaf()) {
+    leaves += node.aabb.perimeter();
+    return;
+  }
+  refit_subtree(node.child1, internal, leaves);
+  refit_subtree(node.child2, internal, leaves);
+  refit(index);
+  internal += nodes_[index].aabb.perimeter();
+}
+
+double DynamicTree::refit_all() {
+  if (root_ == kNullNode) return 0.0;
+  double internal = 0.0, leaves = 0.0;
+  refit_subtree(root_, internal, leaves);
+  return leaves > 0.0 ? internal / leaves : std::numeric_limits<double>::infinity();
+}
+
+double DynamicTree::cost() const {
+  double internal = 0.0, leaves = 0.0;
+  for (const Node& node : nodes_) {
+    if (node.height > 0) internal += node.aabb.perimeter();
+    if (node.height == 0) leaves += node.aabb.perimeter();
+  }
+  if (root_ == kNullNode) return 0.0;
+  return leaves > 0.0 ? internal / leaves : std::numeric_limits<double>::infinity();
 }
 
 double DynamicTree::area_ratio() const {

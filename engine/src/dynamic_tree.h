@@ -35,6 +35,12 @@ class DynamicTree {
   // With a pool, a large tree's parts are built on its threads (the same tree).
   void set_leaf_box(int proxy_id, const AABB& fat_aabb) { nodes_[proxy_id].aabb = fat_aabb; }
   void rebuild(WorkerPool* pool = nullptr);
+  // After set_leaf_box calls, the cheaper alternative to rebuild(): every internal node's box
+  // (and bits and height) refitted from its children, the structure kept. Returns cost().
+  double refit_all();
+  // The sum of the internal nodes' perimeters over the leaves': a query's walk grows with it.
+  // Infinite when the leaves have no extent.
+  double cost() const;
 
   // Replaces a leaf's filter bits (and its ancestors' unions of them).
   void set_leaf_filter(int proxy_id, uint64_t category_bits, uint64_t mask_bits);
@@ -129,6 +135,8 @@ class DynamicTree {
   void balance_upward(int index);
   // Box and height of an internal node from its children.
   void refit(int index);
+  // refit() over the subtree at `index`, children first; adds the perimeters to the sums.
+  void refit_subtree(int index, double& internal, double& leaves);
   void replace_child(int parent, int old_child, int new_child);
   struct LeafCentre {
     double c[2];  // centre of the leaf's box

@@ -116,6 +116,7 @@ class WorldImpl {
   std::vector<AABB> fat_boxes;
   std::vector<int> move_buffer;  // shape indices whose proxies moved or were created
   std::vector<std::pair<int, AABB>> pending_moves;  // proxy and new fat box (commit_moves)
+  double tree_built_cost = 0.0;  // tree.cost() after its last rebuild (commit_moves)
 
   StepEvents events;
 

@@ -291,6 +291,36 @@ TEST(DynamicTree, RebuildAfterBulkMovesMatchesBruteForce) {
   EXPECT_EQ(single.user_data(id), 42u);
 }
 
+// refit_all keeps the structure and makes every box fit its leaves again: a valid tree that
+// answers as brute force does. Its cost (internal perimeters over the leaves') is what cost()
+// reports, grows as the leaves scatter from the neighbours the tree was built with, and a
+// rebuild brings it back down.
+TEST(DynamicTree, RefitAfterBulkMovesMatchesBruteForce) {
+  Rng rng(9);
+  Fixture f;
+  fill(f, rng, 2000);
+  f.tree.rebuild();
+  const double built = f.tree.cost();
+  EXPECT_GT(built, 0.0);
+  for (auto& [id, box] : f.proxies) {
+    const Vec2 delta(rng.uniform(-30.0, 30.0), rng.uniform(-30.0, 30.0));
+    box = AABB{box.lower + delta, box.upper + delta};
+    f.tree.set_leaf_box(id, box);
+  }
+  const int height = f.tree.height();
+  const double refitted = f.tree.refit_all();
+  ASSERT_TRUE(f.tree.validate());
+  EXPECT_EQ(f.tree.height(), height);
+  EXPECT_NEAR(refitted, f.tree.cost(), 1e-12 * refitted);  // the same sums, added in another order
+  EXPECT_GT(refitted, 1.25 * built);  // moves of 30 m among boxes mostly under 8 m across
+  expect_queries_match(f.tree, f.proxies, rng);
+  f.tree.rebuild();
+  EXPECT_LT(f.tree.cost(), refitted);
+  expect_queries_match(f.tree, f.proxies, rng);
+  DynamicTree empty;
+  EXPECT_EQ(empty.refit_all(), 0.0);
+}
+
 // A rebuild on two threads (the quarters of a large tree built at once) gives the tree one
 // thread gives: the same height and, for every query, the same leaves in the same order (the
 // order a walk reports is the tree's shape). Later edits then go the same way too.
