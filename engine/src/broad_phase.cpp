@@ -141,6 +141,58 @@ bool WorldImpl::should_collide(int sa, int sb) const {
   return ba.joints.empty() || bb.joints.empty() || !joint_blocks_contact(a.body, b.body);
 }
 
+namespace {
+
+// Candidate pairs as a walk finds them. Most already have their contact (a contact lives as long
+// as its shapes' boxes overlap), so the pair set is asked first, before either shape is read.
+// Its lookups are likely cache misses: each candidate's slot is fetched as it is found, and the
+// candidates are looked at in batches, in the order found, so that the misses overlap. A pair
+// that has no contact, is not skipped (`skip`) and may collide is kept; `found` counts the kept
+// pairs across threads, and once it passes `room` nothing more is kept.
+template <typename Skip>
+class PairBatch {
+ public:
+  PairBatch(const WorldImpl& w, int64_t room, std::atomic<int64_t>& found,
+            std::vector<std::pair<int, int>>* out, Skip skip)
+      : w_(w),
+        room_(room),
+        found_(found),
+        out_(out),
+        skip_(skip),
+        more_(found.load(std::memory_order_relaxed) <= room) {}
+  // Returns false once the room is passed: the walk may stop.
+  bool add(int sa, int sb) {
+    w_.contact_pairs.prefetch(pair_key(sa, sb));
+    batch_[batched_++] = {sa, sb};
+    return batched_ < kBatch || flush();
+  }
+  bool flush() {
+    for (int k = 0; k < batched_ && more_; ++k) {
+      const auto [sa, sb] = batch_[k];
+      if (w_.contact_pairs.contains(pair_key(sa, sb))) continue;
+      if (skip_(sa, sb) || !w_.should_collide(sa, sb)) continue;
+      out_->emplace_back(std::min(sa, sb), std::max(sa, sb));
+      more_ = found_.fetch_add(1, std::memory_order_relaxed) < room_;
+    }
+    batched_ = 0;
+    return more_;
+  }
+  bool more() const { return more_; }
+
+ private:
+  static constexpr int kBatch = 32;
+  const WorldImpl& w_;
+  const int64_t room_;
+  std::atomic<int64_t>& found_;
+  std::vector<std::pair<int, int>>* out_;
+  Skip skip_;
+  bool more_;
+  std::pair<int, int> batch_[kBatch];
+  int batched_ = 0;
+};
+
+}  // namespace
+
 // When at least half the moving tree's leaves moved (a pile flying apart, a rain of bodies), the
 // new pairs are found by walking each tree with the moving tree (DynamicTree::join) instead of
 // querying it once per moved shape: each overlapping pair of leaves is met once, and kept when
@@ -176,32 +228,14 @@ bool WorldImpl::join_moves(int64_t room, std::atomic<int64_t>& found) {
     const bool is_self = i < static_cast<int>(self.size());
     const DynamicTree& other = is_self ? tree : static_tree;
     const std::vector<uint8_t>& other_moved = is_self ? moved_leaf : moved_static_leaf;
-    // As in the queries, the pair set is asked in batches, each lookup fetched as it is found.
-    constexpr int kBatch = 32;
-    std::pair<int, int> batch[kBatch];
-    int batched = 0;
-    bool more = found.load(std::memory_order_relaxed) <= room;
-    auto take_batch = [&]() {
-      for (int k = 0; k < batched && more; ++k) {
-        const auto [sa, sb] = batch[k];
-        if (contact_pairs.contains(pair_key(sa, sb))) continue;
-        if (!should_collide(sa, sb)) continue;
-        out.emplace_back(std::min(sa, sb), std::max(sa, sb));
-        more = found.fetch_add(1, std::memory_order_relaxed) < room;
-      }
-      batched = 0;
-      return more;
-    };
+    // The walk meets each pair once: none is skipped.
+    PairBatch batch(*this, room, found, &out, [](int, int) { return false; });
     const DynamicTree::JoinTask t = is_self ? self[i] : cross[i - self.size()];
     tree.join(other, t, [&](int a, int b) {
       if (!moved_leaf[a] && !other_moved[b]) return true;
-      const int sa = static_cast<int>(tree.user_data(a));
-      const int sb = static_cast<int>(other.user_data(b));
-      contact_pairs.prefetch(pair_key(sa, sb));
-      batch[batched++] = {sa, sb};
-      return batched < kBatch || take_batch();
+      return batch.add(static_cast<int>(tree.user_data(a)), static_cast<int>(other.user_data(b)));
     });
-    take_batch();
+    batch.flush();
   };
   run_chunks(pool, tasks, task, true);
   if (found.load() <= room) {
@@ -241,39 +275,18 @@ int64_t WorldImpl::update_pairs() {
     const bool grouped = s.filter.group_index > 0;
     const uint64_t category = grouped ? ~0ull : s.filter.category_bits;
     const uint64_t mask = grouped ? ~0ull : s.filter.mask_bits;
-    bool more = true;  // false once the contact limit is passed
-    // Most boxes a moved box overlaps already have their contact (a contact lives as long as
-    // its shapes' boxes overlap), so the pair set is asked first, before either shape is read.
-    // Its lookups are likely cache misses: each hit's slot is fetched as the walk finds it, and
-    // the hits are looked at in batches, in the order found, so that the misses overlap.
-    constexpr int kBatch = 32;
-    int batch[kBatch];
-    int batched = 0;
-    auto take_batch = [&]() {
-      for (int i = 0; i < batched && more; ++i) {
-        const int other = batch[i];
-        if (contact_pairs.contains(pair_key(si, other))) continue;
-        // A pair of two moved shapes is found from the lower index's side.
-        if (shapes[other].in_move_buffer && other < si) continue;
-        if (!should_collide(si, other)) continue;
-        out->emplace_back(std::min(si, other), std::max(si, other));
-        more = found.fetch_add(1, std::memory_order_relaxed) < room;
-      }
-      batched = 0;
-      return more;
-    };
+    // A pair of two moved shapes is found from the lower index's side.
+    PairBatch batch(*this, room, found, out,
+                    [&](int, int other) { return shapes[other].in_move_buffer && other < si; });
     auto walk = [&](const DynamicTree& t) {
       t.query_filtered(box, category, mask, [&](int proxy) {
         const int other = static_cast<int>(t.user_data(proxy));
-        if (other == si) return true;
-        contact_pairs.prefetch(pair_key(si, other));
-        batch[batched++] = other;
-        return batched < kBatch || take_batch();
+        return other == si || batch.add(si, other);
       });
-      take_batch();
+      batch.flush();
     };
     walk(tree);
-    if (more && bodies[s.body].type != BodyType::kStatic) walk(static_tree);
+    if (batch.more() && bodies[s.body].type != BodyType::kStatic) walk(static_tree);
   };
   constexpr size_t kShapesPerChunk = 64;
   const size_t moved = move_buffer.size();

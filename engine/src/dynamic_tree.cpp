@@ -463,32 +463,42 @@ void DynamicTree::refit_subtree(int index, double& internal, double& leaves) {
   internal += nodes_[index].aabb.perimeter();
 }
 
+namespace {
+
+double cost_of(double internal, double leaves) {
+  return leaves > 0.0 ? internal / leaves : std::numeric_limits<double>::infinity();
+}
+
+}  // namespace
+
 double DynamicTree::refit_all() {
   if (root_ == kNullNode) return 0.0;
   double internal = 0.0, leaves = 0.0;
   refit_subtree(root_, internal, leaves);
-  return leaves > 0.0 ? internal / leaves : std::numeric_limits<double>::infinity();
+  return cost_of(internal, leaves);
 }
 
-double DynamicTree::cost() const {
-  double internal = 0.0, leaves = 0.0;
+void DynamicTree::perimeter_sums(double& internal, double& leaves) const {
   for (const Node& node : nodes_) {
     if (node.height > 0) internal += node.aabb.perimeter();
     if (node.height == 0) leaves += node.aabb.perimeter();
   }
+}
+
+double DynamicTree::cost() const {
   if (root_ == kNullNode) return 0.0;
-  return leaves > 0.0 ? internal / leaves : std::numeric_limits<double>::infinity();
+  double internal = 0.0, leaves = 0.0;
+  perimeter_sums(internal, leaves);
+  return cost_of(internal, leaves);
 }
 
 double DynamicTree::area_ratio() const {
   if (root_ == kNullNode) return 0.0;
   const double root_area = nodes_[root_].aabb.perimeter();
   if (!(root_area > 0.0)) return 0.0;
-  double total = 0.0;
-  for (const Node& node : nodes_) {
-    if (node.height > 0) total += node.aabb.perimeter();  // internal nodes only
-  }
-  return total / root_area;
+  double internal = 0.0, leaves = 0.0;
+  perimeter_sums(internal, leaves);
+  return internal / root_area;
 }
 
 bool DynamicTree::validate() const {

@@ -137,6 +137,8 @@ class DynamicTree {
   void refit(int index);
   // refit() over the subtree at `index`, children first; adds the perimeters to the sums.
   void refit_subtree(int index, double& internal, double& leaves);
+  // Adds the perimeters of the internal nodes and of the leaves to the sums, in node order.
+  void perimeter_sums(double& internal, double& leaves) const;
   void replace_child(int parent, int old_child, int new_child);
   struct LeafCentre {
     double c[2];  // centre of the leaf's box
