@@ -770,9 +770,11 @@ void WorldImpl::solve_group(const std::vector<int>& awake,
   // classic settings, with the block solver and split impulses) one by one in id order.
   const bool coloured = !rule.rigid;
   prepare_joints(awake, h);
-  // Threads only where a colour has chunks enough to share (see kBlocksPerChunk).
+  // Threads only where a colour has chunks enough to share (see kBlocksPerChunk), or the joints
+  // that are not pins have groups enough (kRowsPerJointChunk).
   WorkerPool* workers =
-      pool != nullptr && ((coloured && s.contacts.size() >= 256) || coloured_points.points >= 256)
+      pool != nullptr && ((coloured && s.contacts.size() >= 256) || coloured_points.points >= 256 ||
+                          !coloured_points.chunk_start.empty())
           ? pool
           : nullptr;
   if (workers != nullptr) workers->begin_busy();

@@ -7,6 +7,7 @@
 #include "fulcrum/trig.h"
 #include "joint_solver.h"
 #include "validation.h"
+#include "worker_pool.h"
 #include "world_impl.h"
 
 namespace fulcrum {
@@ -161,10 +162,14 @@ void WorldImpl::destroy_joint_at(int ji) {
   free_joints.push_back(ji);
 }
 
+// Joint rows per chunk when prepare_joints shares them among threads.
+constexpr size_t kJointsPerChunk = 256;
+
 void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
   SolverScratch& s = solver_scratch;
   // Awake joints in id order, each once (from its lower-indexed awake body).
   s.joints.clear();
+  size_t springs = 0;
   if (awake.size() == awake_bodies.size() && 2 * awake.size() >= static_cast<size_t>(body_count)) {
     // All awake bodies (not one budget group), most bodies in all: one pass over the joint pool
     // finds the same joints, already in id order.
@@ -172,6 +177,7 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
       const Joint& j = joints[ji];
       if (j.alive && (bodies[j.body_a].awake || bodies[j.body_b].awake)) {
         s.joints.push_back(static_cast<int>(ji));
+        springs += j.type == JointType::kSpring;
       }
     }
   } else {
@@ -185,13 +191,12 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     }
     std::sort(s.joints.begin(), s.joints.end());
     s.joints.erase(std::unique(s.joints.begin(), s.joints.end()), s.joints.end());
+    for (int ji : s.joints) springs += joints[ji].type == JointType::kSpring;
   }
 
   const Softness soft = make_softness(settings.joint_hertz, settings.joint_damping_ratio, h);
-  s.joint_rows.resize(s.joints.size());
-  s.spring_rows.clear();
-  size_t n_rows = 0;
-  for (size_t k = 0; k < s.joints.size(); ++k) {
+  // Joint k's row, in `r`.
+  auto fill_row = [&](size_t k, JointRow& r) {
     Joint& j = joints[s.joints[k]];
     if (!settings.warm_starting) {
       j.linear_impulse = Vec2::Zero();
@@ -200,9 +205,6 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     }
     const Body& ba = bodies[j.body_a];
     const Body& bb = bodies[j.body_b];
-    // Spring force elements have rows of their own; constraints fill joint_rows in id order.
-    JointRow& r =
-        j.type == JointType::kSpring ? s.spring_rows.emplace_back() : s.joint_rows[n_rows++];
     r = JointRow{};
     r.joint = s.joints[k];
     r.ia = ba.awake ? s.body_slot[j.body_a] : 0;
@@ -245,15 +247,36 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
         prepare_revolute_joint(j, r, a, b);
       }
     }
+  };
+  s.joint_rows.resize(s.joints.size());
+  s.spring_rows.clear();
+  size_t n_rows = 0;
+  if (springs == 0) {
+    // Row k is joint k's: rows in chunks, each written by one thread.
+    n_rows = s.joints.size();
+    const int chunks = static_cast<int>((n_rows + kJointsPerChunk - 1) / kJointsPerChunk);
+    auto chunk = [&](int c) {
+      const size_t lo = static_cast<size_t>(c) * kJointsPerChunk;
+      for (size_t k = lo; k < std::min(lo + kJointsPerChunk, n_rows); ++k) {
+        fill_row(k, s.joint_rows[k]);
+      }
+    };
+    run_chunks(chunks > 1 ? pool : nullptr, chunks, chunk, true);
+  } else {
+    // Spring force elements have rows of their own; constraints fill joint_rows in id order.
+    for (size_t k = 0; k < s.joints.size(); ++k) {
+      const bool spring = joints[s.joints[k]].type == JointType::kSpring;
+      fill_row(k, spring ? s.spring_rows.emplace_back() : s.joint_rows[n_rows++]);
+    }
   }
   s.joint_rows.resize(n_rows);
-  colour_points(s.joint_rows, joints, s.bodies, &coloured_points);
+  colour_points(s.joint_rows, joints, s.bodies, pool, &coloured_points);
 }
 
 void WorldImpl::warm_start_joints(WorkerPool* workers) {
   SolverScratch& s = solver_scratch;
   warm_start_points(coloured_points, s.bodies.data(), workers);
-  for (int k : coloured_points.other_rows) {
+  each_other_row(coloured_points, workers, [&](int k) {
     const JointRow& r = s.joint_rows[k];
     SolverBody& a = s.bodies[r.ia];
     SolverBody& b = s.bodies[r.ib];
@@ -286,7 +309,7 @@ void WorldImpl::warm_start_joints(WorkerPool* workers) {
       case JointType::kSpring:
         break;  // a force, applied with the velocities (apply_spring_forces)
     }
-  }
+  });
 }
 
 void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers) {
@@ -307,7 +330,7 @@ void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers) {
   rule.impulse_scale = st.rigid ? 0.0 : soft.impulse_scale;
   rule.max_speed = st.max_speed;
   solve_points(coloured_points, s.bodies.data(), rule, workers);
-  for (int k : coloured_points.other_rows) {
+  each_other_row(coloured_points, workers, [&](int k) {
     const JointRow& r = s.joint_rows[k];
     SolverBody& a = s.bodies[r.ia];
     SolverBody& b = s.bodies[r.ib];
@@ -340,7 +363,7 @@ void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers) {
       case JointType::kSpring:
         break;
     }
-  }
+  });
 }
 
 void WorldImpl::store_joint_impulses() {

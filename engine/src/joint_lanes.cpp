@@ -86,10 +86,71 @@ void each_colour(ColouredPoints& cp, WorkerPool* pool, ColourFn colour_fn, Overf
   if (cp.colour_start[cp.colours] < end) overflow_fn(cp.colour_start[cp.colours], end);
 }
 
+int root_of(std::vector<int>& parent, int i) {
+  while (parent[i] != i) {
+    parent[i] = parent[parent[i]];
+    i = parent[i];
+  }
+  return i;
+}
+
+// Fills grouped_rows and chunk_start from other_rows (see ColouredPoints).
+void group_other_rows(const std::vector<JointRow>& rows, size_t slots, ColouredPoints* out) {
+  const std::vector<int>& other = out->other_rows;
+  if (other.size() < 2 * static_cast<size_t>(kRowsPerJointChunk)) return;
+  std::vector<int>& parent = out->slot_parent;
+  std::vector<int>& group = out->slot_group;
+  if (parent.size() < slots) {
+    parent.resize(slots);
+    group.resize(slots);
+  }
+  // Only the slots these rows name are read, so only they are reset.
+  for (int k : other) parent[rows[k].ia] = rows[k].ia, parent[rows[k].ib] = rows[k].ib;
+  for (int k : other) {
+    const int a = root_of(parent, rows[k].ia), b = root_of(parent, rows[k].ib);
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+  }
+  // Groups numbered in the order of their first rows; each row's group is kept in
+  // grouped_rows for the counting sort below.
+  for (int k : other) group[root_of(parent, rows[k].ia)] = -1;
+  std::vector<int>& place = out->group_place;  // first each group's size, then its next place
+  place.clear();
+  std::vector<int>& row_group = out->grouped_rows;
+  for (int k : other) {
+    int& g = group[root_of(parent, rows[k].ia)];
+    if (g < 0) {
+      g = static_cast<int>(place.size());
+      place.push_back(0);
+    }
+    ++place[g];
+    row_group.push_back(g);
+  }
+  // Chunks of whole groups, at least kRowsPerJointChunk rows each.
+  int at = 0;
+  for (int& p : place) {
+    if (out->chunk_start.empty() || at - out->chunk_start.back() >= kRowsPerJointChunk) {
+      out->chunk_start.push_back(at);
+    }
+    const int n = p;
+    p = at;
+    at += n;
+  }
+  out->chunk_start.push_back(at);
+  if (out->chunk_start.size() < 3) {  // one chunk: nothing to share
+    out->grouped_rows.clear();
+    out->chunk_start.clear();
+    return;
+  }
+  std::vector<int>& sorted = out->group_sorted;
+  sorted.resize(other.size());
+  for (size_t i = 0; i < other.size(); ++i) sorted[place[row_group[i]]++] = other[i];
+  out->grouped_rows.swap(sorted);
+}
+
 }  // namespace
 
 void colour_points(const std::vector<JointRow>& rows, const std::vector<Joint>& joints,
-                   const std::vector<SolverBody>& bodies, ColouredPoints* out) {
+                   const std::vector<SolverBody>& bodies, WorkerPool* pool, ColouredPoints* out) {
   const size_t n_rows = rows.size();
   std::vector<uint32_t>& use = out->body_use;
   use.assign(bodies.size(), 0);
@@ -115,14 +176,26 @@ void colour_points(const std::vector<JointRow>& rows, const std::vector<Joint>& 
   out->points = 0;
   for (size_t k = 0; k < n_rows; ++k) {
     if (lane_of_row[k] < 0) continue;
-    const int lane = next_lane[lane_of_row[k]]++;
-    lane_of_row[k] = lane;
-    write_lane(rows[k], joints[rows[k].joint], bodies, &out->blocks[lane / kBlockLanes],
-               lane % kBlockLanes);
+    lane_of_row[k] = next_lane[lane_of_row[k]]++;
     ++out->points;
   }
+  // Each row writes its own lane.
+  const size_t per_chunk = 512;
+  const int chunks = static_cast<int>((n_rows + per_chunk - 1) / per_chunk);
+  auto pack = [&](int c) {
+    for (size_t k = c * per_chunk; k < std::min((c + 1) * per_chunk, n_rows); ++k) {
+      const int lane = lane_of_row[k];
+      if (lane < 0) continue;
+      write_lane(rows[k], joints[rows[k].joint], bodies, &out->blocks[lane / kBlockLanes],
+                 lane % kBlockLanes);
+    }
+  };
+  run_chunks(chunks > 1 ? pool : nullptr, chunks, pack, true);
   // Padding lanes: the static body on both sides, a singular K, no change.
   pad_colours(layout, &out->blocks, clear_lane);
+  out->grouped_rows.clear();
+  out->chunk_start.clear();
+  if (pool != nullptr) group_other_rows(rows, bodies.size(), out);
 }
 
 void unpack_points(const ColouredPoints& cp, const std::vector<JointRow>& rows,

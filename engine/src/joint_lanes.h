@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "contact_lanes.h"
+#include "worker_pool.h"
 
 namespace fulcrum {
 
@@ -43,16 +44,49 @@ struct ColouredPoints {
   std::vector<PointBlock> blocks;
   std::vector<int> colour_start;  // as ColouredContacts: colours, then the overflow
   int colours = 0;
-  int points = 0;                  // plain point rows packed
-  std::vector<int> lane_of_row;    // joint row -> block * kBlockLanes + lane (-1: not a point)
-  std::vector<int> other_rows;     // the rows that are not plain points, in row order
+  int points = 0;                // plain point rows packed
+  std::vector<int> lane_of_row;  // joint row -> block * kBlockLanes + lane (-1: not a point)
+  std::vector<int> other_rows;   // the rows that are not plain points, in row order
+  // The other rows in groups, for threads: rows that share a solver body (any slot, the static
+  // body's too, since their functions write both bodies, one of infinite mass unchanged) are
+  // in one group, in row order, and groups follow in the order of their first rows. Chunk c
+  // is grouped_rows[chunk_start[c], chunk_start[c + 1]), whole groups of at least
+  // kRowsPerJointChunk rows (the last may have fewer). Rows of different groups write no
+  // memory in common, so chunks on any number of threads give the bits of other_rows solved in
+  // order. Empty (no chunks) without threads, or with fewer than two chunks' rows.
+  std::vector<int> grouped_rows;
+  std::vector<int> chunk_start;
   std::vector<uint32_t> body_use;  // scratch: colours used per solver body
+  std::vector<int> slot_parent;    // scratch: union-find over solver slots
+  std::vector<int> slot_group;     // scratch: group of a root slot
+  std::vector<int> group_place;    // scratch: each group's size, then its place
+  std::vector<int> group_sorted;   // scratch: grouped_rows in the making
 };
 
+// Rows per chunk of grouped_rows: a constant, so that chunks never depend on the thread count.
+inline constexpr int kRowsPerJointChunk = 32;
+
+// Runs row_fn(k) for every other row k: in row order without a pool (or with fewer than two
+// chunks), else chunk by chunk among the pool's threads.
+template <class F>
+void each_other_row(const ColouredPoints& cp, WorkerPool* pool, F row_fn) {
+  const int chunks = static_cast<int>(cp.chunk_start.size()) - 1;
+  if (pool == nullptr || chunks < 2) {
+    for (int k : cp.other_rows) row_fn(k);
+    return;
+  }
+  auto chunk = [&](int c) {
+    for (int i = cp.chunk_start[c]; i < cp.chunk_start[c + 1]; ++i) row_fn(cp.grouped_rows[i]);
+  };
+  pool->run(chunks, chunk);
+}
+
 // Colours the plain point rows of `rows` (joints[row.joint] their joints) and packs them into
-// blocks, each lane starting from its joint's accumulated point impulse.
+// blocks, each lane starting from its joint's accumulated point impulse, sharing the packing
+// among the pool's threads. With a pool it also groups the other rows; without, they have no
+// chunks.
 void colour_points(const std::vector<JointRow>& rows, const std::vector<Joint>& joints,
-                   const std::vector<SolverBody>& bodies, ColouredPoints* out);
+                   const std::vector<SolverBody>& bodies, WorkerPool* pool, ColouredPoints* out);
 // Writes the lanes' point impulses back to their joints.
 void unpack_points(const ColouredPoints& cp, const std::vector<JointRow>& rows,
                    std::vector<Joint>* joints);

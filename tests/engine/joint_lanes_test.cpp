@@ -5,6 +5,8 @@
 // feedback).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <map>
 #include <set>
 #include <vector>
 
@@ -159,6 +161,83 @@ TEST(JointLanes, EveryThreadCountGivesOneThreadsBits) {
   expect_thread_counts_agree(grid(20), 60, {1, 2, 3, 4}, [](const World& w) {
     const ColouredPoints& cp = w.impl().coloured_points;
     EXPECT_GE(cp.colour_start[1] - cp.colour_start[0], 2 * kBlocksPerChunk);
+  });
+}
+
+// 50 ragdolls (limited revolute joints: rows of their own, a group per ragdoll), and six
+// two-link chains of limited joints hanging from the ground: the ground is the static slot, so
+// those chains' rows are one group.
+SceneDef ragdolls_and_hanging_chains() {
+  SceneDef s = scenes::builtin("ragdolls").value();
+  const int ground = 0;
+  for (int k = 0; k < 6; ++k) {
+    const double x = -20.0 + 8.0 * k;
+    for (int link = 0; link < 2; ++link) {
+      s.bodies.push_back(ball(Vec2(x, 30.0 - link), 0.3));
+      const int b = static_cast<int>(s.bodies.size()) - 1;
+      RevoluteJointDef def;
+      const Vec2 anchor(x, 30.5 - link);
+      def.local_anchor_a = anchor - s.bodies[link == 0 ? ground : b - 1].def.position;
+      def.local_anchor_b = anchor - s.bodies[b].def.position;
+      def.enable_limit = true;
+      def.lower_angle = -0.3;
+      def.upper_angle = 0.3;
+      s.joints.push_back(SceneJoint{link == 0 ? ground : b - 1, b, def});
+    }
+  }
+  return s;
+}
+
+// Checks the last tick's groups of the rows that are not plain points (ColouredPoints).
+void expect_valid_groups(const World& w) {
+  const ColouredPoints& cp = w.impl().coloured_points;
+  const std::vector<JointRow>& rows = w.impl().solver_scratch.joint_rows;
+  ASSERT_GE(cp.chunk_start.size(), 3u);
+  ASSERT_EQ(cp.chunk_start.front(), 0);
+  ASSERT_EQ(cp.chunk_start.back(), static_cast<int>(cp.grouped_rows.size()));
+  // The same rows as other_rows.
+  std::vector<int> sorted = cp.grouped_rows;
+  std::sort(sorted.begin(), sorted.end());
+  EXPECT_EQ(sorted, cp.other_rows);
+  std::map<int, int> chunk_of_slot, last_row_of_slot;
+  for (size_t c = 0; c + 1 < cp.chunk_start.size(); ++c) {
+    if (c + 2 < cp.chunk_start.size()) {
+      EXPECT_GE(cp.chunk_start[c + 1] - cp.chunk_start[c], kRowsPerJointChunk);
+    }
+    for (int i = cp.chunk_start[c]; i < cp.chunk_start[c + 1]; ++i) {
+      const int k = cp.grouped_rows[i];
+      for (int slot : {rows[k].ia, rows[k].ib}) {
+        // A slot is written by one chunk only, by its rows in row order.
+        auto [chunk, fresh] = chunk_of_slot.emplace(slot, static_cast<int>(c));
+        EXPECT_EQ(chunk->second, static_cast<int>(c)) << "slot " << slot;
+        if (!fresh) {
+          EXPECT_LT(last_row_of_slot[slot], k) << "slot " << slot;
+        }
+        last_row_of_slot[slot] = k;
+      }
+    }
+  }
+}
+
+TEST(JointLanes, OtherRowsInGroupsShareNoBodyAcrossChunks) {
+  SceneDef scene = ragdolls_and_hanging_chains();
+  World one = build(scene);
+  one.step();
+  // 512 rows of limited joints; one thread needs no groups.
+  EXPECT_EQ(one.impl().coloured_points.other_rows.size(), 512u);
+  EXPECT_TRUE(one.impl().coloured_points.chunk_start.empty());
+  World two = build(scene);
+  ASSERT_TRUE(two.set_threads(2).ok());
+  for (int i = 0; i < 90; ++i) {
+    two.step();
+    if (i == 0 || i == 89) expect_valid_groups(two);
+  }
+}
+
+TEST(JointLanes, GroupsOfOtherRowsGiveOneThreadsBits) {
+  // The ragdolls fall, land and tangle for 1.5 s, their groups shared among threads.
+  expect_thread_counts_agree(ragdolls_and_hanging_chains(), 90, {1, 2, 3, 4}, [](const World& w) {
+    EXPECT_EQ(w.impl().coloured_points.chunk_start.empty(), w.threads() == 1);
   });
 }
 
