@@ -65,27 +65,10 @@
 #include <limits>
 #include <optional>
 
+#include "union_find.h"
 #include "world_impl.h"
 
 namespace fulcrum {
-
-namespace {
-
-int find_root(std::vector<int>& parent, int i) {
-  while (parent[i] != i) {
-    parent[i] = parent[parent[i]];
-    i = parent[i];
-  }
-  return i;
-}
-
-void unite(std::vector<int>& parent, int a, int b) {
-  a = find_root(parent, a);
-  b = find_root(parent, b);
-  if (a != b) parent[std::max(a, b)] = std::min(a, b);
-}
-
-}  // namespace
 
 namespace {
 

@@ -5,21 +5,10 @@
 #include <algorithm>
 #include <cassert>
 
+#include "union_find.h"
 #include "world_impl.h"
 
 namespace fulcrum {
-
-namespace {
-
-int find_root(std::vector<int>& parent, int i) {
-  while (parent[i] != i) {
-    parent[i] = parent[parent[i]];  // path halving
-    i = parent[i];
-  }
-  return i;
-}
-
-}  // namespace
 
 void WorldImpl::update_sleep(const std::vector<int>& awake) {
   if (awake.empty()) return;
@@ -73,9 +62,7 @@ void WorldImpl::update_sleep(const std::vector<int>& awake) {
     const int ka = awake_dynamic(c.body_a);
     const int kb = awake_dynamic(c.body_b);
     if (ka >= 0 && kb >= 0) {
-      int ra = find_root(parent, ka);
-      int rb = find_root(parent, kb);
-      if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+      unite(parent, ka, kb);
     } else if (ka >= 0 && moving_kinematic(c.body_b)) {
       island_min[ka] = 0.0;
     } else if (kb >= 0 && moving_kinematic(c.body_a)) {
@@ -93,9 +80,7 @@ void WorldImpl::update_sleep(const std::vector<int>& awake) {
       const Body& o = bodies[other];
       if (o.type == BodyType::kKinematic && o.sleep_time == 0.0) island_min[k] = 0.0;
       if (!o.is_dynamic() || !o.awake || other < bi) continue;
-      int ra = find_root(parent, k);
-      int rb = find_root(parent, slot[other] - 1);
-      if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+      unite(parent, k, slot[other] - 1);
     }
   }
 

@@ -6,6 +6,7 @@
 #include "fulcrum/simd.h"
 #include "fulcrum/state.h"
 #include "joint_solver.h"
+#include "union_find.h"
 #include "worker_pool.h"
 
 namespace fulcrum {
@@ -86,14 +87,6 @@ void each_colour(ColouredPoints& cp, WorkerPool* pool, ColourFn colour_fn, Overf
   if (cp.colour_start[cp.colours] < end) overflow_fn(cp.colour_start[cp.colours], end);
 }
 
-int root_of(std::vector<int>& parent, int i) {
-  while (parent[i] != i) {
-    parent[i] = parent[parent[i]];
-    i = parent[i];
-  }
-  return i;
-}
-
 // Fills grouped_rows and chunk_start from other_rows (see ColouredPoints).
 void group_other_rows(const std::vector<JointRow>& rows, size_t slots, ColouredPoints* out) {
   const std::vector<int>& other = out->other_rows;
@@ -106,18 +99,15 @@ void group_other_rows(const std::vector<JointRow>& rows, size_t slots, ColouredP
   }
   // Only the slots these rows name are read, so only they are reset.
   for (int k : other) parent[rows[k].ia] = rows[k].ia, parent[rows[k].ib] = rows[k].ib;
-  for (int k : other) {
-    const int a = root_of(parent, rows[k].ia), b = root_of(parent, rows[k].ib);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
-  }
+  for (int k : other) unite(parent, rows[k].ia, rows[k].ib);
   // Groups numbered in the order of their first rows; each row's group is kept in
   // grouped_rows for the counting sort below.
-  for (int k : other) group[root_of(parent, rows[k].ia)] = -1;
+  for (int k : other) group[find_root(parent, rows[k].ia)] = -1;
   std::vector<int>& place = out->group_place;  // first each group's size, then its next place
   place.clear();
   std::vector<int>& row_group = out->grouped_rows;
   for (int k : other) {
-    int& g = group[root_of(parent, rows[k].ia)];
+    int& g = group[find_root(parent, rows[k].ia)];
     if (g < 0) {
       g = static_cast<int>(place.size());
       place.push_back(0);
