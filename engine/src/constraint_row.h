@@ -49,20 +49,20 @@ inline RowJacobian angle_jacobian() {
 }
 
 // m_c = 1 / (J M^-1 J^T), or 0 when the row cannot move anything.
-inline double effective_mass(const RowJacobian& j, const SolverBody& a, const SolverBody& b) {
+inline double effective_mass(const RowJacobian& j, const ScalarBody& a, const ScalarBody& b) {
   double k = a.inv_mass * dot(j.linear_a, j.linear_a) + a.inv_inertia * j.angular_a * j.angular_a +
              b.inv_mass * dot(j.linear_b, j.linear_b) + b.inv_inertia * j.angular_b * j.angular_b;
   return k > 0.0 ? 1.0 / k : 0.0;
 }
 
 // J v.
-inline double row_velocity(const RowJacobian& j, const SolverBody& a, const SolverBody& b) {
+inline double row_velocity(const RowJacobian& j, const ScalarBody& a, const ScalarBody& b) {
   return j.linear_a.x() * a.vx + j.linear_a.y() * a.vy + j.angular_a * a.w + j.linear_b.x() * b.vx +
          j.linear_b.y() * b.vy + j.angular_b * b.w;
 }
 
 // v += M^-1 J^T lambda.
-inline void apply_row_impulse(const RowJacobian& j, double lambda, SolverBody& a, SolverBody& b) {
+inline void apply_row_impulse(const RowJacobian& j, double lambda, ScalarBody& a, ScalarBody& b) {
   a.vx += a.inv_mass * (lambda * j.linear_a.x());
   a.vy += a.inv_mass * (lambda * j.linear_a.y());
   a.w += a.inv_inertia * (lambda * j.angular_a);
@@ -72,7 +72,7 @@ inline void apply_row_impulse(const RowJacobian& j, double lambda, SolverBody& a
 }
 
 // One sequential-impulse update of one row; returns the impulse applied this time.
-inline double solve_row(ConstraintRow& row, SolverBody& a, SolverBody& b) {
+inline double solve_row(ConstraintRow& row, ScalarBody& a, ScalarBody& b) {
   double lambda =
       -row.effective_mass * row.softness.mass_scale * (row_velocity(row.j, a, b) + row.bias) -
       row.softness.impulse_scale * row.impulse;

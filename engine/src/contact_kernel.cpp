@@ -167,15 +167,14 @@ void clear_lane(ContactBlock* b, int l) {
   clear_point(&b->points[1], l);
 }
 
-void write_lane(const SolverBody* bodies, const ContactRow& row, ContactBlock* b, int l) {
-  const SolverBody& a = bodies[row.ia];
-  const SolverBody& bb = bodies[row.ib];
+void write_lane(const SolverBody* bodies, const SolverBodyExtra* extras, const ContactRow& row,
+                ContactBlock* b, int l) {
   b->ia[l] = row.ia;
   b->ib[l] = row.ib;
-  b->write_a[l] = a.inv_mass > 0.0;
-  b->write_b[l] = bb.inv_mass > 0.0;
-  b->inv_inertia_a[l] = a.inv_inertia;
-  b->inv_inertia_b[l] = bb.inv_inertia;
+  b->write_a[l] = bodies[row.ia].inv_mass > 0.0;
+  b->write_b[l] = bodies[row.ib].inv_mass > 0.0;
+  b->inv_inertia_a[l] = extras[row.ia].inv_inertia;
+  b->inv_inertia_b[l] = extras[row.ib].inv_inertia;
   b->nx[l] = row.nx;
   b->ny[l] = row.ny;
   b->friction[l] = row.friction;
@@ -263,10 +262,11 @@ void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<Solve
   pad_colours(layout, &out->blocks, clear_lane);
 }
 
-void pack_row(const SolverBody* bodies, const ContactRow& row, size_t k, ColouredContacts* cc) {
+void pack_row(const SolverBody* bodies, const SolverBodyExtra* extras, const ContactRow& row,
+              size_t k, ColouredContacts* cc) {
   const int lane_index = cc->lane_of_row[k];
   ContactBlock* block = &cc->blocks[lane_index / kBlockLanes];
-  write_lane(bodies, row, block, lane_index % kBlockLanes);
+  write_lane(bodies, extras, row, block, lane_index % kBlockLanes);
   separation_lanes<double>(*block, lane_index % kBlockLanes, bodies);
 }
 

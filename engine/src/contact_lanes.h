@@ -114,7 +114,8 @@ void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<Solve
                      ColouredContacts* out);
 // Writes row k (prepared) into its lane, with its separations computed from the bodies' motion
 // as update_separations would. Rows of one block may be packed on different threads.
-void pack_row(const SolverBody* bodies, const ContactRow& row, size_t k, ColouredContacts* cc);
+void pack_row(const SolverBody* bodies, const SolverBodyExtra* extras, const ContactRow& row,
+              size_t k, ColouredContacts* cc);
 
 // Lanes [first, first + count) of blocks, for each path. Each returns the largest corrective
 // impulse (0 unless the rule asks for it). Declared per path so that the 4-lane path can live in a

@@ -45,22 +45,24 @@ namespace {
 // The row math below is written on plain doubles: (v + w x r) = (vx - w ry, vy + w rx) and
 // r x P = rx Py - ry Px.
 
-// Relative velocity of the contact point, B minus A.
-inline void relative_velocity(const SolverBody& a, const SolverBody& b, const ContactPointRow& p,
-                              double* dvx, double* dvy) {
+// Relative velocity of the contact point, B minus A (of solver bodies or their scalar copies).
+template <class Body>
+inline void relative_velocity(const Body& a, const Body& b, const ContactPointRow& p, double* dvx,
+                              double* dvy) {
   *dvx = (b.vx - b.w * p.rby) - (a.vx - a.w * p.ray);
   *dvy = (b.vy + b.w * p.rbx) - (a.vy + a.w * p.rax);
 }
 
-inline double normal_speed(const SolverBody& a, const SolverBody& b, const ContactPointRow& p,
-                           double nx, double ny) {
+template <class Body>
+inline double normal_speed(const Body& a, const Body& b, const ContactPointRow& p, double nx,
+                           double ny) {
   double dvx, dvy;
   relative_velocity(a, b, p, &dvx, &dvy);
   return dvx * nx + dvy * ny;
 }
 
 // P applied to B at rb and -P to A at ra.
-inline void apply_impulse(SolverBody& a, SolverBody& b, const ContactPointRow& p, double px,
+inline void apply_impulse(ScalarBody& a, ScalarBody& b, const ContactPointRow& p, double px,
                           double py) {
   a.vx -= a.inv_mass * px;
   a.vy -= a.inv_mass * py;
@@ -71,8 +73,9 @@ inline void apply_impulse(SolverBody& a, SolverBody& b, const ContactPointRow& p
 }
 
 // Separation now, from the bodies' motion since the tick began (anchors turned with them).
-inline double current_separation(const SolverBody& a, const SolverBody& b, const ContactPointRow& p,
-                                 double nx, double ny) {
+template <class Body>
+inline double current_separation(const Body& a, const Body& b, const ContactPointRow& p, double nx,
+                                 double ny) {
   double ax = a.qc * p.rax - a.qs * p.ray, ay = a.qs * p.rax + a.qc * p.ray;
   double bx = b.qc * p.rbx - b.qs * p.rby, by = b.qs * p.rbx + b.qc * p.rby;
   double dx = (b.dpx - a.dpx) + (bx - ax);
@@ -82,7 +85,14 @@ inline double current_separation(const SolverBody& a, const SolverBody& b, const
 
 void load_bodies(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s) {
   s.bodies.resize(awake.size() + 1);
+  s.body_extras.resize(awake.size() + 1);
   s.bodies[0] = SolverBody{};  // the shared static body: zero velocity, infinite mass
+  s.body_extras[0] = SolverBodyExtra{};
+  if (w.settings.contact_hertz == 0.0 && w.settings.split_impulses) {
+    s.pseudo.assign(awake.size() + 1, PseudoVelocity{});
+  } else {
+    s.pseudo.clear();
+  }
   if (s.body_slot.size() < w.bodies.size()) s.body_slot.resize(w.bodies.size(), 0);
   for (size_t k = 0; k < awake.size(); ++k) {
     const Body& b = w.bodies[awake[k]];
@@ -93,7 +103,9 @@ void load_bodies(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s) 
     sb.vy = b.v.y();
     sb.w = b.w;
     sb.inv_mass = b.inv_mass;
-    sb.inv_inertia = b.inv_inertia;
+    SolverBodyExtra& x = s.body_extras[k + 1];
+    x = SolverBodyExtra{};
+    x.inv_inertia = b.inv_inertia;
   }
 }
 
@@ -243,8 +255,8 @@ void prepare_row(const WorldImpl& w, const SolverScratch& s, const RowRule& r, s
   row.ny = c.manifold.normal.y();
   row.friction = c.friction;
   row.count = c.manifold.count;
-  const SolverBody& a = s.bodies[row.ia];
-  const SolverBody& b = s.bodies[row.ib];
+  const ScalarBody a = scalar_body(s, row.ia);
+  const ScalarBody b = scalar_body(s, row.ib);
   row.softness = (a.inv_mass == 0.0 || b.inv_mass == 0.0) ? r.static_soft : r.soft;
   const double nx = row.nx, ny = row.ny;
   const double tx = ny, ty = -nx;
@@ -359,7 +371,7 @@ void prepare_coloured(WorldImpl& w, SolverScratch& s, double h, ColouredContacts
       ContactRow& row = kept ? s.rows[k] : scratch_row;
       prepare_row(w, s, r, k, s.row_bodies[k], row, kept ? s.extras[k] : scratch_extra);
       s.row_points[k] = static_cast<uint8_t>(row.count);
-      pack_row(s.bodies.data(), row, k, cc);
+      pack_row(s.bodies.data(), s.body_extras.data(), row, k, cc);
     }
   });
 }
@@ -411,8 +423,8 @@ void track_approach(SolverScratch& s, double inv_h, const ColouredContacts* lane
 
 void warm_start(SolverScratch& s) {
   for (ContactRow& row : s.rows) {
-    SolverBody& a = s.bodies[row.ia];
-    SolverBody& b = s.bodies[row.ib];
+    ScalarBody a = scalar_body(s, row.ia);
+    ScalarBody b = scalar_body(s, row.ib);
     for (int i = 0; i < row.count; ++i) {
       const ContactPointRow& p = row.points[i];
       // P = lambda_n n + lambda_t t, with t = (ny, -nx).
@@ -420,6 +432,8 @@ void warm_start(SolverScratch& s) {
       double py = p.normal_impulse * row.ny - p.tangent_impulse * row.nx;
       apply_impulse(a, b, p, px, py);
     }
+    store_velocity(a, s.bodies[row.ia]);
+    store_velocity(b, s.bodies[row.ib]);
   }
 }
 
@@ -459,7 +473,7 @@ inline void normal_bias(const BiasRule& r, const Softness& soft, double s, doubl
 // Both normal rows of a two-point manifold as one 2x2 mixed linear complementarity problem,
 // solved by enumerating its four cases (Box2D 2.x's block solver): find x >= 0 with
 // v = K x + b >= 0 and x_i v_i = 0, where b is the row velocity error at zero impulse.
-double solve_block(ContactRow& row, const ContactRowExtra& e, SolverBody& a, SolverBody& b,
+double solve_block(ContactRow& row, const ContactRowExtra& e, ScalarBody& a, ScalarBody& b,
                    const BiasRule& rule) {
   ContactPointRow& p1 = row.points[0];
   ContactPointRow& p2 = row.points[1];
@@ -498,7 +512,7 @@ double solve_block(ContactRow& row, const ContactRowExtra& e, SolverBody& a, Sol
 // A row whose bodies never turn (particles, fixed rotation, the static body): the same math
 // as solve_contacts with every angular term, being zero, left out. Rotations by the identity
 // are exact, so the results are bit-identical to the general path.
-double solve_linear_row(ContactRow& row, SolverBody& a, SolverBody& b, const BiasRule& rule) {
+double solve_linear_row(ContactRow& row, ScalarBody& a, ScalarBody& b, const BiasRule& rule) {
   double largest = 0.0;
   const double nx = row.nx, ny = row.ny;
   for (int i = 0; i < row.count; ++i) {
@@ -536,52 +550,58 @@ double solve_linear_row(ContactRow& row, SolverBody& a, SolverBody& b, const Bia
   return largest;
 }
 
-// One pass over all rows; returns the largest corrective impulse.
+// One row's pass; returns its largest corrective impulse.
+double solve_contact_row(ContactRow& row, const ContactRowExtra& e, ScalarBody& a, ScalarBody& b,
+                         const BiasRule& rule) {
+  if (row.linear) return solve_linear_row(row, a, b, rule);
+  double largest = 0.0;
+  const double nx = row.nx, ny = row.ny;
+  if (row.block) {
+    largest = solve_block(row, e, a, b, rule);
+  } else {
+    for (int i = 0; i < row.count; ++i) {
+      ContactPointRow& p = row.points[i];
+      double bias, mass_scale, impulse_scale;
+      normal_bias(rule, row.softness, current_separation(a, b, p, nx, ny), &bias, &mass_scale,
+                  &impulse_scale);
+      double vn = normal_speed(a, b, p, nx, ny);
+      double lambda = -p.normal_mass * mass_scale * (vn + bias) - impulse_scale * p.normal_impulse;
+      double acc = std::max(p.normal_impulse + lambda, 0.0);
+      lambda = acc - p.normal_impulse;
+      p.normal_impulse = acc;
+      p.max_normal_impulse = std::max(p.max_normal_impulse, acc);
+      apply_impulse(a, b, p, lambda * nx, lambda * ny);
+      largest = std::max(largest, std::abs(lambda));
+    }
+  }
+  // Friction along t = (ny, -nx), bounded by the normal impulses just found.
+  const double tx = ny, ty = -nx;
+  for (int i = 0; i < row.count; ++i) {
+    ContactPointRow& p = row.points[i];
+    double dvx, dvy;
+    relative_velocity(a, b, p, &dvx, &dvy);
+    double lambda = -p.tangent_mass * (dvx * tx + dvy * ty);
+    double limit = row.friction * p.normal_impulse;
+    double acc = std::clamp(p.tangent_impulse + lambda, -limit, limit);
+    lambda = acc - p.tangent_impulse;
+    p.tangent_impulse = acc;
+    apply_impulse(a, b, p, lambda * tx, lambda * ty);
+    largest = std::max(largest, std::abs(lambda));
+  }
+  return largest;
+}
+
+// One pass over all rows, in id order; returns the largest corrective impulse.
 double solve_contacts(SolverScratch& s, const BiasRule& rule) {
   double largest = 0.0;
   const size_t n_rows = s.rows.size();
   for (size_t k = 0; k < n_rows; ++k) {
     ContactRow& row = s.rows[k];
-    SolverBody& a = s.bodies[row.ia];
-    SolverBody& b = s.bodies[row.ib];
-    const double nx = row.nx, ny = row.ny;
-    if (row.linear) {
-      largest = std::max(largest, solve_linear_row(row, a, b, rule));
-      continue;
-    }
-    if (row.block) {
-      largest = std::max(largest, solve_block(row, s.extras[k], a, b, rule));
-    } else {
-      for (int i = 0; i < row.count; ++i) {
-        ContactPointRow& p = row.points[i];
-        double bias, mass_scale, impulse_scale;
-        normal_bias(rule, row.softness, current_separation(a, b, p, nx, ny), &bias, &mass_scale,
-                    &impulse_scale);
-        double vn = normal_speed(a, b, p, nx, ny);
-        double lambda =
-            -p.normal_mass * mass_scale * (vn + bias) - impulse_scale * p.normal_impulse;
-        double acc = std::max(p.normal_impulse + lambda, 0.0);
-        lambda = acc - p.normal_impulse;
-        p.normal_impulse = acc;
-        p.max_normal_impulse = std::max(p.max_normal_impulse, acc);
-        apply_impulse(a, b, p, lambda * nx, lambda * ny);
-        largest = std::max(largest, std::abs(lambda));
-      }
-    }
-    // Friction along t = (ny, -nx), bounded by the normal impulses just found.
-    const double tx = ny, ty = -nx;
-    for (int i = 0; i < row.count; ++i) {
-      ContactPointRow& p = row.points[i];
-      double dvx, dvy;
-      relative_velocity(a, b, p, &dvx, &dvy);
-      double lambda = -p.tangent_mass * (dvx * tx + dvy * ty);
-      double limit = row.friction * p.normal_impulse;
-      double acc = std::clamp(p.tangent_impulse + lambda, -limit, limit);
-      lambda = acc - p.tangent_impulse;
-      p.tangent_impulse = acc;
-      apply_impulse(a, b, p, lambda * tx, lambda * ty);
-      largest = std::max(largest, std::abs(lambda));
-    }
+    ScalarBody a = scalar_body(s, row.ia);
+    ScalarBody b = scalar_body(s, row.ib);
+    largest = std::max(largest, solve_contact_row(row, s.extras[k], a, b, rule));
+    store_velocity(a, s.bodies[row.ia]);
+    store_velocity(b, s.bodies[row.ib]);
   }
   return largest;
 }
@@ -592,40 +612,58 @@ void solve_pseudo(SolverScratch& s, const BiasRule& rule) {
   const size_t n_rows = s.rows.size();
   for (size_t k = 0; k < n_rows; ++k) {
     ContactRow& row = s.rows[k];
-    SolverBody& a = s.bodies[row.ia];
-    SolverBody& b = s.bodies[row.ib];
+    const SolverBody& a = s.bodies[row.ia];
+    const SolverBody& b = s.bodies[row.ib];
+    const double iia = s.body_extras[row.ia].inv_inertia;
+    const double iib = s.body_extras[row.ib].inv_inertia;
+    PseudoVelocity& xa = s.pseudo[row.ia];
+    PseudoVelocity& xb = s.pseudo[row.ib];
     const double nx = row.nx, ny = row.ny;
     for (int i = 0; i < row.count; ++i) {
       ContactPointRow& p = row.points[i];
       double bias = rigid_push(rule, current_separation(a, b, p, nx, ny));
-      double dvx = (b.pvx - b.pw * p.rby) - (a.pvx - a.pw * p.ray);
-      double dvy = (b.pvy + b.pw * p.rbx) - (a.pvy + a.pw * p.rax);
+      double dvx = (xb.vx - xb.w * p.rby) - (xa.vx - xa.w * p.ray);
+      double dvy = (xb.vy + xb.w * p.rbx) - (xa.vy + xa.w * p.rax);
       double& acc_ref = s.extras[k].pseudo_impulse[i];
       double lambda = -p.normal_mass * (dvx * nx + dvy * ny + bias);
       double acc = std::max(acc_ref + lambda, 0.0);
       lambda = acc - acc_ref;
       acc_ref = acc;
       double px = lambda * nx, py = lambda * ny;
-      a.pvx -= a.inv_mass * px;
-      a.pvy -= a.inv_mass * py;
-      a.pw -= a.inv_inertia * (p.rax * py - p.ray * px);
-      b.pvx += b.inv_mass * px;
-      b.pvy += b.inv_mass * py;
-      b.pw += b.inv_inertia * (p.rbx * py - p.rby * px);
+      xa.vx -= a.inv_mass * px;
+      xa.vy -= a.inv_mass * py;
+      xa.w -= iia * (p.rax * py - p.ray * px);
+      xb.vx += b.inv_mass * px;
+      xb.vy += b.inv_mass * py;
+      xb.w += iib * (p.rbx * py - p.rby * px);
     }
   }
 }
 
 // Symplectic Euler for one substep: x += h (v + v_pseudo); rotation by the exact angle.
-void integrate_positions(SolverScratch& s, double h, double max_speed, size_t first, size_t end) {
+// kAngles: add up the angles turned (SolverBodyExtra::da). kPseudo: take the pseudo
+// velocities. Without them the positions get the same bits: v + 0 differs from v only for
+// v = -0, whose step h v then moves nothing either way.
+template <bool kAngles, bool kPseudo>
+void integrate_positions_as(SolverScratch& s, double h, double max_speed, size_t first,
+                            size_t end) {
   const double max_turn = max_turn_rate(h);
   for (size_t k = first; k < end; ++k) {
     SolverBody& sb = s.bodies[k];
     cap_speeds(sb, max_speed, max_turn);
-    sb.dpx += h * (sb.vx + sb.pvx);
-    sb.dpy += h * (sb.vy + sb.pvy);
-    double turn = h * (sb.w + sb.pw);
-    sb.da += turn;
+    double turn;
+    if constexpr (kPseudo) {
+      PseudoVelocity& pv = s.pseudo[k];
+      sb.dpx += h * (sb.vx + pv.vx);
+      sb.dpy += h * (sb.vy + pv.vy);
+      turn = h * (sb.w + pv.w);
+      pv = PseudoVelocity{};
+    } else {
+      sb.dpx += h * sb.vx;
+      sb.dpy += h * sb.vy;
+      turn = h * sb.w;
+    }
+    if constexpr (kAngles) s.body_extras[k].da += turn;
     if (turn != 0.0) {
       // mul(Rot{cos, sin}, q).normalized(), written out component by component (the same
       // operations in the same order): reading the returned sine and cosine back from memory as
@@ -644,7 +682,21 @@ void integrate_positions(SolverScratch& s, double h, double max_speed, size_t fi
       sb.qc = mc * inv;
       sb.qs = ms * inv;
     }
-    sb.pvx = sb.pvy = sb.pw = 0.0;
+  }
+}
+
+void integrate_positions(SolverScratch& s, double h, double max_speed, size_t first, size_t end) {
+  const bool pseudo = !s.pseudo.empty();
+  if (s.track_angles) {
+    if (pseudo) {
+      integrate_positions_as<true, true>(s, h, max_speed, first, end);
+    } else {
+      integrate_positions_as<true, false>(s, h, max_speed, first, end);
+    }
+  } else if (pseudo) {
+    integrate_positions_as<false, true>(s, h, max_speed, first, end);
+  } else {
+    integrate_positions_as<false, false>(s, h, max_speed, first, end);
   }
 }
 
@@ -673,8 +725,8 @@ void apply_restitution(SolverScratch& s, ColouredContacts* lanes, double thresho
   for (int k : s.restitution_rows) {
     const ContactRow& row = s.rows[k];
     const ContactRowExtra& extra = s.extras[k];
-    SolverBody& a = s.bodies[row.ia];
-    SolverBody& b = s.bodies[row.ib];
+    ScalarBody a = scalar_body(s, row.ia);
+    ScalarBody b = scalar_body(s, row.ib);
     for (int i = 0; i < row.count; ++i) {
       const ContactPointRow& p = row.points[i];
       const PointImpulses acc_of = impulses_of(s, lanes, k, i);
@@ -687,6 +739,8 @@ void apply_restitution(SolverScratch& s, ColouredContacts* lanes, double thresho
       *acc_of.normal = acc;
       apply_impulse(a, b, p, lambda * row.nx, lambda * row.ny);
     }
+    store_velocity(a, s.bodies[row.ia]);
+    store_velocity(b, s.bodies[row.ib]);
   }
 }
 

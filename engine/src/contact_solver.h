@@ -9,18 +9,54 @@
 
 namespace fulcrum {
 
-// What the iterations touch per body, one cache line for what the contact lanes read: they
-// load the velocity row (vx, vy, w, inv_mass) and the motion row (dpx, dpy, qc, qs) as four
-// doubles each (contact_kernel.h), so these two rows come first and stay in this order.
+// What the iterations touch per body, one cache line: the contact and pin lanes load the
+// velocity row (vx, vy, w, inv_mass) and the motion row (dpx, dpy, qc, qs) as four doubles each
+// (contact_kernel.h), so these two rows stay in this order. The lanes carry the inverse
+// inertias themselves; what else a body has in the solver lives apart, in SolverBodyExtra, so
+// that a pass over many bodies reads one line per body.
 struct alignas(64) SolverBody {
   double vx = 0.0, vy = 0.0, w = 0.0;  // velocity of the centre of mass
   double inv_mass = 0.0;
-  double dpx = 0.0, dpy = 0.0;            // displacement of the centre of mass since the tick began
-  double qc = 1.0, qs = 0.0;              // rotation since the tick began
-  double da = 0.0;                        // angle turned since the tick began (sum of h w)
-  double pvx = 0.0, pvy = 0.0, pw = 0.0;  // pseudo velocity (split impulses)
+  double dpx = 0.0, dpy = 0.0;  // displacement of the centre of mass since the tick began
+  double qc = 1.0, qs = 0.0;    // rotation since the tick began
+};
+
+// The rest of a solver body, read by the rows solved one at a time (joints other than pins,
+// rigid contacts, restitution) and by the packing of lanes: four bodies to a cache line.
+struct SolverBodyExtra {
+  double inv_inertia = 0.0;
+  double da = 0.0;  // angle turned since the tick began (sum of h w); kept only while a joint
+                    // row reads it (SolverScratch::track_angles)
+};
+
+// Rigid contacts with split impulses: the velocity that moves a body out of overlap this
+// substep and is then forgotten.
+struct PseudoVelocity {
+  double vx = 0.0, vy = 0.0, w = 0.0;
+};
+
+// One solver body as a row solved one at a time sees it: a copy of its line and of its
+// inverse inertia and angle, taken for the row (scalar_body); the row's change of velocity
+// goes back with store_velocity. A row's two bodies are two different slots (a joint or
+// contact without an awake body has no row), so the two copies never stand for one body.
+struct ScalarBody {
+  double vx = 0.0, vy = 0.0, w = 0.0;
+  double inv_mass = 0.0;
+  double dpx = 0.0, dpy = 0.0;
+  double qc = 1.0, qs = 0.0;
+  double da = 0.0;
   double inv_inertia = 0.0;
 };
+
+inline ScalarBody scalar_body(const SolverBody& b, const SolverBodyExtra& x) {
+  return ScalarBody{b.vx, b.vy, b.w, b.inv_mass, b.dpx, b.dpy, b.qc, b.qs, x.da, x.inv_inertia};
+}
+
+inline void store_velocity(const ScalarBody& from, SolverBody& b) {
+  b.vx = from.vx;
+  b.vy = from.vy;
+  b.w = from.w;
+}
 
 // Soft constraint coefficients for one substep (Catto, "Solver2D", 2024): a spring of
 // stiffness omega = 2 pi hertz with damping ratio zeta, made implicit. The row impulse becomes
@@ -89,6 +125,11 @@ struct BodyDrive {
 
 struct SolverScratch {
   std::vector<SolverBody> bodies;
+  std::vector<SolverBodyExtra> body_extras;  // beside bodies, slot for slot
+  std::vector<PseudoVelocity> pseudo;        // beside bodies with split impulses, else empty
+  // Whether this tick's joint rows read the angles turned (SolverBodyExtra::da): the substeps
+  // add them up only then.
+  bool track_angles = false;
   std::vector<BodyDrive> drives;  // per awake body (slot k + 1's is drives[k])
   std::vector<int> body_slot;     // body index -> solver slot (0 for bodies not solved)
   // Soft contacts keep rows and extras only for contacts with restitution; their other rows
@@ -106,5 +147,9 @@ struct SolverScratch {
   std::vector<JointRow> joint_rows;   // constraints
   std::vector<JointRow> spring_rows;  // spring force elements
 };
+
+inline ScalarBody scalar_body(const SolverScratch& s, int slot) {
+  return scalar_body(s.bodies[slot], s.body_extras[slot]);
+}
 
 }  // namespace fulcrum

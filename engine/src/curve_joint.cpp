@@ -119,14 +119,14 @@ CurvePoint closest_on_curve(const Joint& j, const Vec2& p) {
 namespace {
 
 // The bead now, world, and its arm from B's centre of mass.
-Vec2 bead(const JointRow& r, const SolverBody& b, double* rbx, double* rby) {
+Vec2 bead(const JointRow& r, const ScalarBody& b, double* rbx, double* rby) {
   *rbx = b.qc * r.rbx - b.qs * r.rby;
   *rby = b.qs * r.rbx + b.qc * r.rby;
   // r.dcx, r.dcy hold B's centre of mass at the start of the tick, world.
   return Vec2(r.dcx + b.dpx + *rbx, r.dcy + b.dpy + *rby);
 }
 
-void apply_normal(double lambda, const Vec2& n, double crn, SolverBody& b) {
+void apply_normal(double lambda, const Vec2& n, double crn, ScalarBody& b) {
   b.vx += b.inv_mass * (lambda * n.x());
   b.vy += b.inv_mass * (lambda * n.y());
   b.w += b.inv_inertia * (lambda * crn);
@@ -134,13 +134,13 @@ void apply_normal(double lambda, const Vec2& n, double crn, SolverBody& b) {
 
 }  // namespace
 
-void warm_start_curve_joint(const Joint& j, const JointRow& r, SolverBody& b) {
+void warm_start_curve_joint(const Joint& j, const JointRow& r, ScalarBody& b) {
   double rbx, rby;
   CurvePoint cp = closest_on_curve(j, bead(r, b, &rbx, &rby));
   apply_normal(j.axial_impulse, cp.normal, rbx * cp.normal.y() - rby * cp.normal.x(), b);
 }
 
-void solve_curve_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& b) {
+void solve_curve_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarBody& b) {
   double rbx, rby;
   Vec2 p = bead(r, b, &rbx, &rby);
   CurvePoint cp = closest_on_curve(j, p);

@@ -28,11 +28,11 @@ Axis axis_of(const JointFrame& f) {
 }
 
 // Applies impulse `lambda` along u: -P to A at ra, +P to B at rb.
-void apply_axis(const JointFrame& f, const Axis& u, double lambda, SolverBody& a, SolverBody& b) {
+void apply_axis(const JointFrame& f, const Axis& u, double lambda, ScalarBody& a, ScalarBody& b) {
   apply_joint_impulse(f, lambda * u.ux, lambda * u.uy, a, b);
 }
 
-double axis_speed(const JointFrame& f, const Axis& u, const SolverBody& a, const SolverBody& b) {
+double axis_speed(const JointFrame& f, const Axis& u, const ScalarBody& a, const ScalarBody& b) {
   double dvx = (b.vx - b.w * f.rby) - (a.vx - a.w * f.ray);
   double dvy = (b.vy + b.w * f.rbx) - (a.vy + a.w * f.rax);
   return dvx * u.ux + dvy * u.uy;
@@ -40,7 +40,7 @@ double axis_speed(const JointFrame& f, const Axis& u, const SolverBody& a, const
 
 }  // namespace
 
-void prepare_distance_joint(const Joint& j, JointRow& r, const SolverBody& a, const SolverBody& b) {
+void prepare_distance_joint(const Joint& j, JointRow& r, const ScalarBody& a, const ScalarBody& b) {
   JointFrame f = joint_frame(r, a, b);
   Axis u = axis_of(f);
   double cra = r.rax * u.uy - r.ray * u.ux, crb = r.rbx * u.uy - r.rby * u.ux;
@@ -49,14 +49,14 @@ void prepare_distance_joint(const Joint& j, JointRow& r, const SolverBody& a, co
   (void)j;
 }
 
-void warm_start_distance_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b) {
+void warm_start_distance_joint(const Joint& j, const JointRow& r, ScalarBody& a, ScalarBody& b) {
   JointFrame f = joint_frame(r, a, b);
   Axis u = axis_of(f);
   apply_axis(f, u, j.axial_impulse + j.spring_impulse + j.lower_impulse - j.upper_impulse, a, b);
 }
 
-void solve_distance_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
-                          SolverBody& b) {
+void solve_distance_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarBody& a,
+                          ScalarBody& b) {
   JointFrame f = joint_frame(r, a, b);
   Axis u = axis_of(f);
   double bias, ms, is;

@@ -220,8 +220,8 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     r.soft = soft;
     r.spring = make_softness(j.hertz, j.damping_ratio, h);
     r.angular_spring = make_softness(j.angular_hertz, j.angular_damping_ratio, h);
-    const SolverBody& a = s.bodies[r.ia];
-    const SolverBody& b = s.bodies[r.ib];
+    const ScalarBody a = scalar_body(s, r.ia);
+    const ScalarBody b = scalar_body(s, r.ib);
     if (j.type == JointType::kTarget) {
       r.dcx = bb.center.x() - j.target.x();
       r.dcy = bb.center.y() - j.target.y();
@@ -270,7 +270,9 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     }
   }
   s.joint_rows.resize(n_rows);
-  colour_points(s.joint_rows, joints, s.bodies, pool, &coloured_points);
+  colour_points(s.joint_rows, joints, s.bodies, s.body_extras, pool, &coloured_points);
+  // Only the rows that are not plain points read the angles the bodies turn.
+  s.track_angles = !coloured_points.other_rows.empty();
 }
 
 void WorldImpl::warm_start_joints(WorkerPool* workers) {
@@ -278,8 +280,8 @@ void WorldImpl::warm_start_joints(WorkerPool* workers) {
   warm_start_points(coloured_points, s.bodies.data(), workers);
   each_other_row(coloured_points, workers, [&](int k) {
     const JointRow& r = s.joint_rows[k];
-    SolverBody& a = s.bodies[r.ia];
-    SolverBody& b = s.bodies[r.ib];
+    ScalarBody a = scalar_body(s, r.ia);
+    ScalarBody b = scalar_body(s, r.ib);
     Joint& j = joints[r.joint];
     switch (j.type) {
       case JointType::kDistance:
@@ -309,6 +311,8 @@ void WorldImpl::warm_start_joints(WorkerPool* workers) {
       case JointType::kSpring:
         break;  // a force, applied with the velocities (apply_spring_forces)
     }
+    store_velocity(a, s.bodies[r.ia]);
+    store_velocity(b, s.bodies[r.ib]);
   });
 }
 
@@ -332,8 +336,8 @@ void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers) {
   solve_points(coloured_points, s.bodies.data(), rule, workers);
   each_other_row(coloured_points, workers, [&](int k) {
     const JointRow& r = s.joint_rows[k];
-    SolverBody& a = s.bodies[r.ia];
-    SolverBody& b = s.bodies[r.ib];
+    ScalarBody a = scalar_body(s, r.ia);
+    ScalarBody b = scalar_body(s, r.ib);
     Joint& j = joints[r.joint];
     switch (j.type) {
       case JointType::kDistance:
@@ -363,6 +367,8 @@ void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers) {
       case JointType::kSpring:
         break;
     }
+    store_velocity(a, s.bodies[r.ia]);
+    store_velocity(b, s.bodies[r.ib]);
   });
 }
 

@@ -15,8 +15,9 @@ namespace {
 
 // A body the point rows change: the static body (slot 0), kinematic bodies and bodies of
 // infinite mass and inertia are only read.
-bool movable(const SolverBody& b) {
-  return b.inv_mass > 0.0 || b.inv_inertia > 0.0;
+bool movable(const std::vector<SolverBody>& bodies, const std::vector<SolverBodyExtra>& extras,
+             int slot) {
+  return bodies[slot].inv_mass > 0.0 || extras[slot].inv_inertia > 0.0;
 }
 
 void clear_lane(PointBlock* b, int l) {
@@ -29,15 +30,13 @@ void clear_lane(PointBlock* b, int l) {
 }
 
 void write_lane(const JointRow& r, const Joint& j, const std::vector<SolverBody>& bodies,
-                PointBlock* b, int l) {
-  const SolverBody& a = bodies[r.ia];
-  const SolverBody& bb = bodies[r.ib];
+                const std::vector<SolverBodyExtra>& extras, PointBlock* b, int l) {
   b->ia[l] = r.ia;
   b->ib[l] = r.ib;
-  b->write_a[l] = movable(a);
-  b->write_b[l] = movable(bb);
-  b->inv_inertia_a[l] = a.inv_inertia;
-  b->inv_inertia_b[l] = bb.inv_inertia;
+  b->write_a[l] = movable(bodies, extras, r.ia);
+  b->write_b[l] = movable(bodies, extras, r.ib);
+  b->inv_inertia_a[l] = extras[r.ia].inv_inertia;
+  b->inv_inertia_b[l] = extras[r.ib].inv_inertia;
   b->rax[l] = r.rax;
   b->ray[l] = r.ray;
   b->rbx[l] = r.rbx;
@@ -140,7 +139,9 @@ void group_other_rows(const std::vector<JointRow>& rows, size_t slots, ColouredP
 }  // namespace
 
 void colour_points(const std::vector<JointRow>& rows, const std::vector<Joint>& joints,
-                   const std::vector<SolverBody>& bodies, WorkerPool* pool, ColouredPoints* out) {
+                   const std::vector<SolverBody>& bodies,
+                   const std::vector<SolverBodyExtra>& extras, WorkerPool* pool,
+                   ColouredPoints* out) {
   const size_t n_rows = rows.size();
   std::vector<uint32_t>& use = out->body_use;
   use.assign(bodies.size(), 0);
@@ -154,8 +155,8 @@ void colour_points(const std::vector<JointRow>& rows, const std::vector<Joint>& 
       out->other_rows.push_back(static_cast<int>(k));
       continue;
     }
-    const int colour =
-        take_colour(use, r.ia, movable(bodies[r.ia]), r.ib, movable(bodies[r.ib]), false);
+    const int colour = take_colour(use, r.ia, movable(bodies, extras, r.ia), r.ib,
+                                   movable(bodies, extras, r.ib), false);
     lane_of_row[k] = colour;
     ++count[colour];
   }
@@ -176,7 +177,7 @@ void colour_points(const std::vector<JointRow>& rows, const std::vector<Joint>& 
     for (size_t k = c * per_chunk; k < std::min((c + 1) * per_chunk, n_rows); ++k) {
       const int lane = lane_of_row[k];
       if (lane < 0) continue;
-      write_lane(rows[k], joints[rows[k].joint], bodies, &out->blocks[lane / kBlockLanes],
+      write_lane(rows[k], joints[rows[k].joint], bodies, extras, &out->blocks[lane / kBlockLanes],
                  lane % kBlockLanes);
     }
   };

@@ -86,7 +86,9 @@ void each_other_row(const ColouredPoints& cp, WorkerPool* pool, F row_fn) {
 // among the pool's threads. With a pool it also groups the other rows; without, they have no
 // chunks.
 void colour_points(const std::vector<JointRow>& rows, const std::vector<Joint>& joints,
-                   const std::vector<SolverBody>& bodies, WorkerPool* pool, ColouredPoints* out);
+                   const std::vector<SolverBody>& bodies,
+                   const std::vector<SolverBodyExtra>& extras, WorkerPool* pool,
+                   ColouredPoints* out);
 // Writes the lanes' point impulses back to their joints.
 void unpack_points(const ColouredPoints& cp, const std::vector<JointRow>& rows,
                    std::vector<Joint>* joints);

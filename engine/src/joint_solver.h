@@ -46,7 +46,7 @@ struct JointFrame {
   double dx, dy;  // anchor B minus anchor A, now
 };
 
-inline JointFrame joint_frame(const JointRow& r, const SolverBody& a, const SolverBody& b) {
+inline JointFrame joint_frame(const JointRow& r, const ScalarBody& a, const ScalarBody& b) {
   JointFrame f;
   f.rax = a.qc * r.rax - a.qs * r.ray;
   f.ray = a.qs * r.rax + a.qc * r.ray;
@@ -58,8 +58,8 @@ inline JointFrame joint_frame(const JointRow& r, const SolverBody& a, const Solv
 }
 
 // P applied to B at its anchor and -P to A at its anchor.
-inline void apply_joint_impulse(const JointFrame& f, double px, double py, SolverBody& a,
-                                SolverBody& b) {
+inline void apply_joint_impulse(const JointFrame& f, double px, double py, ScalarBody& a,
+                                ScalarBody& b) {
   a.vx -= a.inv_mass * px;
   a.vy -= a.inv_mass * py;
   a.w -= a.inv_inertia * (f.rax * py - f.ray * px);
@@ -78,7 +78,7 @@ struct LineFrame {
   double s1, s2;  // (d + ra) x p and rb x p, p = (-uy, ux)
 };
 
-inline LineFrame line_frame(const JointRow& r, const SolverBody& a, const SolverBody& b) {
+inline LineFrame line_frame(const JointRow& r, const ScalarBody& a, const ScalarBody& b) {
   LineFrame fr;
   fr.f = joint_frame(r, a, b);
   fr.ux = a.qc * r.axis_x - a.qs * r.axis_y;
@@ -93,7 +93,7 @@ inline LineFrame line_frame(const JointRow& r, const SolverBody& a, const Solver
 }
 
 // Impulse along the axis: P = lambda u at the anchors (angular parts a1, a2).
-inline void apply_line_axial(const LineFrame& fr, double lambda, SolverBody& a, SolverBody& b) {
+inline void apply_line_axial(const LineFrame& fr, double lambda, ScalarBody& a, ScalarBody& b) {
   double px = lambda * fr.ux, py = lambda * fr.uy;
   a.vx -= a.inv_mass * px;
   a.vy -= a.inv_mass * py;
@@ -103,11 +103,11 @@ inline void apply_line_axial(const LineFrame& fr, double lambda, SolverBody& a, 
   b.w += b.inv_inertia * (lambda * fr.a2);
 }
 
-inline double line_axial_speed(const LineFrame& fr, const SolverBody& a, const SolverBody& b) {
+inline double line_axial_speed(const LineFrame& fr, const ScalarBody& a, const ScalarBody& b) {
   return fr.ux * (b.vx - a.vx) + fr.uy * (b.vy - a.vy) + fr.a2 * b.w - fr.a1 * a.w;
 }
 
-inline double line_axial_mass(const LineFrame& fr, const SolverBody& a, const SolverBody& b) {
+inline double line_axial_mass(const LineFrame& fr, const ScalarBody& a, const ScalarBody& b) {
   double k =
       a.inv_mass + b.inv_mass + a.inv_inertia * fr.a1 * fr.a1 + b.inv_inertia * fr.a2 * fr.a2;
   return k > 0.0 ? 1.0 / k : 0.0;
@@ -116,7 +116,7 @@ inline double line_axial_mass(const LineFrame& fr, const SolverBody& a, const So
 // The translation limits of a line joint along its axis (lower <= t <= upper), as two
 // inequality rows, speculative until reached. Shared by prismatic and wheel joints.
 void solve_line_limits(Joint& j, const LineFrame& fr, double m, const JointRow& r,
-                       const JointStep& st, SolverBody& a, SolverBody& b);
+                       const JointStep& st, ScalarBody& a, ScalarBody& b);
 
 // The feedback for position error C of a joint row in this pass: bias, mass and impulse
 // scales (see contact_solver.cpp for the soft form).
@@ -178,29 +178,29 @@ inline Vec2 capped_point_correction(const JointStep& st, double k11, double k12,
   return Vec2(inv_det * (k22 * dx - k12 * dy), inv_det * (k11 * dy - k12 * dx));
 }
 
-void prepare_distance_joint(const Joint& j, JointRow& r, const SolverBody& a, const SolverBody& b);
-void warm_start_distance_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b);
-void solve_distance_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
-                          SolverBody& b);
+void prepare_distance_joint(const Joint& j, JointRow& r, const ScalarBody& a, const ScalarBody& b);
+void warm_start_distance_joint(const Joint& j, const JointRow& r, ScalarBody& a, ScalarBody& b);
+void solve_distance_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarBody& a,
+                          ScalarBody& b);
 
-void warm_start_weld_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b);
-void solve_weld_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
-                      SolverBody& b);
+void warm_start_weld_joint(const Joint& j, const JointRow& r, ScalarBody& a, ScalarBody& b);
+void solve_weld_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarBody& a,
+                      ScalarBody& b);
 
-void warm_start_target_joint(const Joint& j, const JointRow& r, SolverBody& b);
-void solve_target_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& b);
+void warm_start_target_joint(const Joint& j, const JointRow& r, ScalarBody& b);
+void solve_target_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarBody& b);
 
-void warm_start_prismatic_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b);
-void solve_prismatic_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
-                           SolverBody& b);
+void warm_start_prismatic_joint(const Joint& j, const JointRow& r, ScalarBody& a, ScalarBody& b);
+void solve_prismatic_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarBody& a,
+                           ScalarBody& b);
 
-void warm_start_wheel_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b);
-void solve_wheel_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
-                       SolverBody& b);
+void warm_start_wheel_joint(const Joint& j, const JointRow& r, ScalarBody& a, ScalarBody& b);
+void solve_wheel_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarBody& a,
+                       ScalarBody& b);
 
-void warm_start_motor_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b);
-void solve_motor_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
-                       SolverBody& b);
+void warm_start_motor_joint(const Joint& j, const JointRow& r, ScalarBody& a, ScalarBody& b);
+void solve_motor_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarBody& a,
+                       ScalarBody& b);
 
 // Curve joints: the closest point of the curve to p and the unit normal there, oriented
 // consistently along the curve (line and polyline: to the left of the direction of travel;
@@ -210,18 +210,18 @@ struct CurvePoint {
   Vec2 normal = Vec2(0.0, 1.0);
 };
 CurvePoint closest_on_curve(const Joint& j, const Vec2& p);
-void warm_start_curve_joint(const Joint& j, const JointRow& r, SolverBody& b);
-void solve_curve_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& b);
+void warm_start_curve_joint(const Joint& j, const JointRow& r, ScalarBody& b);
+void solve_curve_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarBody& b);
 
 // Spring force elements: one substep's force, applied as the impulse h F.
-void apply_spring_force(Joint& j, const JointRow& r, double h, SolverBody& a, SolverBody& b);
+void apply_spring_force(Joint& j, const JointRow& r, double h, ScalarBody& a, ScalarBody& b);
 
-void prepare_revolute_joint(const Joint& j, JointRow& r, const SolverBody& a, const SolverBody& b);
-void warm_start_revolute_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b);
-void solve_revolute_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
-                          SolverBody& b);
+void prepare_revolute_joint(const Joint& j, JointRow& r, const ScalarBody& a, const ScalarBody& b);
+void warm_start_revolute_joint(const Joint& j, const JointRow& r, ScalarBody& a, ScalarBody& b);
+void solve_revolute_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarBody& a,
+                          ScalarBody& b);
 // A revolute joint's point rows, with its accumulated point impulse in `impulse` (x, y).
-void solve_revolute_point(const JointRow& r, const JointStep& st, double* impulse, SolverBody& a,
-                          SolverBody& b);
+void solve_revolute_point(const JointRow& r, const JointStep& st, double* impulse, ScalarBody& a,
+                          ScalarBody& b);
 
 }  // namespace fulcrum

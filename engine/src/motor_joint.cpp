@@ -55,15 +55,15 @@ Status World::set_motor_joint_targets(JointId id, const Vec2& linear_offset,
   return {};
 }
 
-void warm_start_motor_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b) {
+void warm_start_motor_joint(const Joint& j, const JointRow& r, ScalarBody& a, ScalarBody& b) {
   JointFrame f = joint_frame(r, a, b);
   apply_joint_impulse(f, j.linear_impulse.x(), j.linear_impulse.y(), a, b);
   a.w -= a.inv_inertia * j.axial_impulse;
   b.w += b.inv_inertia * j.axial_impulse;
 }
 
-void solve_motor_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
-                       SolverBody& b) {
+void solve_motor_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarBody& a,
+                       ScalarBody& b) {
   const double rate = j.correction_factor * st.inv_h;
   if (a.inv_inertia + b.inv_inertia > 0.0) {
     double c = r.angle + (b.da - a.da);

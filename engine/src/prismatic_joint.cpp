@@ -20,7 +20,7 @@
 namespace fulcrum {
 
 void solve_line_limits(Joint& j, const LineFrame& fr, double m, const JointRow& r,
-                       const JointStep& st, SolverBody& a, SolverBody& b) {
+                       const JointStep& st, ScalarBody& a, ScalarBody& b) {
   const double t = fr.ux * fr.f.dx + fr.uy * fr.f.dy;
   double bias, ms, is;
   double c = t - j.lower_angle;  // lower translation
@@ -55,7 +55,7 @@ void solve_line_limits(Joint& j, const LineFrame& fr, double m, const JointRow& 
   apply_line_axial(fr, -lambda, a, b);
 }
 
-void warm_start_prismatic_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b) {
+void warm_start_prismatic_joint(const Joint& j, const JointRow& r, ScalarBody& a, ScalarBody& b) {
   LineFrame fr = line_frame(r, a, b);
   double axial = j.motor_impulse + j.lower_impulse - j.upper_impulse;
   if (j.enable_spring) axial += j.spring_impulse;
@@ -71,8 +71,8 @@ void warm_start_prismatic_joint(const Joint& j, const JointRow& r, SolverBody& a
   b.w += b.inv_inertia * lb;
 }
 
-void solve_prismatic_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
-                           SolverBody& b) {
+void solve_prismatic_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarBody& a,
+                           ScalarBody& b) {
   LineFrame fr = line_frame(r, a, b);
   const double m = line_axial_mass(fr, a, b);
   if (j.enable_spring && j.hertz > 0.0) {

@@ -65,7 +65,7 @@ struct RefRow {
 };
 
 struct Problem {
-  std::vector<SolverBody> v0;  // velocities after the applied forces, masses
+  std::vector<ScalarBody> v0;  // velocities after the applied forces, masses
   std::vector<RefRow> rows;
   bool bounded = false;  // any row with finite bounds
 };
@@ -119,8 +119,8 @@ Status build_joint_rows(const WorldImpl& w, const JointRow& r, RowBuilder& rb,
                         ReferenceSolution* out, const Problem& p) {
   const Joint& j = w.joints[r.joint];
   const double dt = w.settings.dt;
-  const SolverBody& a = p.v0[r.ia];
-  const SolverBody& b = p.v0[r.ib];
+  const ScalarBody& a = p.v0[r.ia];
+  const ScalarBody& b = p.v0[r.ib];
   const bool turns = a.inv_inertia + b.inv_inertia > 0.0;
   const Vec2 ra(r.rax, r.ray), rbv(r.rbx, r.rby);
   const Vec2 d = Vec2(r.dcx, r.dcy) + rbv - ra;  // anchor B minus anchor A, tick start
@@ -207,7 +207,9 @@ Status build_problem(const WorldImpl& w, Problem* p, ReferenceSolution* out) {
   const SolverScratch& s = w.solver_scratch;
   const WorldSettings& set = w.settings;
   const double dt = set.dt, inv_dt = 1.0 / dt;
-  p->v0 = s.bodies;
+  p->v0.resize(s.bodies.size());
+  for (size_t k = 0; k < s.bodies.size(); ++k)
+    p->v0[k] = scalar_body(s.bodies[k], s.body_extras[k]);
   RowBuilder rb(p, dt);
   for (const JointRow& r : s.joint_rows) {
     FULCRUM_RETURN_IF_ERROR(build_joint_rows(w, r, rb, out, *p));
@@ -247,7 +249,7 @@ class Solver {
   Solver(const Problem& p, double tolerance)
       : p_(p), tolerance_(tolerance), lambda_(p.rows.size(), 0.0), v_(p.v0) {}
 
-  const std::vector<SolverBody>& velocities() const { return v_; }
+  const std::vector<ScalarBody>& velocities() const { return v_; }
   const std::vector<double>& impulses() const { return lambda_; }
   int sweeps = 0;
   int direct_solves = 0;
@@ -281,7 +283,7 @@ class Solver {
   // v = v0 + M^-1 J^T lambda from scratch, then the residual (reference.h).
   double refresh() { return refresh(lambda_, &v_); }
 
-  double refresh(const std::vector<double>& lam, std::vector<SolverBody>* v) const {
+  double refresh(const std::vector<double>& lam, std::vector<ScalarBody>* v) const {
     *v = p_.v0;
     for (size_t i = 0; i < p_.rows.size(); ++i) {
       const RefRow& r = p_.rows[i];
@@ -310,14 +312,14 @@ class Solver {
     constexpr int kPivots = 8;
     const size_t n = p_.rows.size();
     std::vector<double> lam = lambda_;
-    std::vector<SolverBody> v = v_;
+    std::vector<ScalarBody> v = v_;
     std::vector<int> state(n, kFree);  // kFree, kHeld or kSlip
     std::vector<double> held(n, 0.0), slip(n, 0.0);
     // The set the iterate presses.
     for (size_t i = 0; i < n; ++i) classify(i, lam, v, &state, &held, &slip);
     // The projected result of each pivot; the best one is kept.
     std::vector<double> best_lam;
-    std::vector<SolverBody> best_v;
+    std::vector<ScalarBody> best_v;
     double best = std::numeric_limits<double>::infinity();
     for (int pivot = 0; pivot < kPivots; ++pivot) {
       solve_set(state, held, slip, &lam);
@@ -332,7 +334,7 @@ class Solver {
           projected[i] = std::clamp(projected[i], lo, hi);
         }
       }
-      std::vector<SolverBody> pv;
+      std::vector<ScalarBody> pv;
       double res = refresh(projected, &pv);
       if (res < best) {
         best = res;
@@ -384,7 +386,7 @@ class Solver {
 
   // Row i's state from the impulses and velocities: free when the unclamped update lands
   // strictly inside its bounds, else held at (friction: slipping along) the bound it presses.
-  void classify(size_t i, const std::vector<double>& lam, const std::vector<SolverBody>& v,
+  void classify(size_t i, const std::vector<double>& lam, const std::vector<ScalarBody>& v,
                 std::vector<int>* state, std::vector<double>* held,
                 std::vector<double>* slip) const {
     const RefRow& r = p_.rows[i];
@@ -423,7 +425,7 @@ class Solver {
       if (state[i] == kSlip && free_index[p_.rows[i].normal] >= 0) slip[i] = slip_in[i];
     }
     if (free_rows.empty()) return;
-    std::vector<SolverBody> v;
+    std::vector<ScalarBody> v;
     refresh(*lam, &v);
     const int m = static_cast<int>(free_rows.size());
     Eigen::VectorXd rhs(m);
@@ -462,7 +464,7 @@ class Solver {
     };
     std::vector<Eigen::Triplet<double>> triplets;
     for (size_t body = 1; body < by_body.size(); ++body) {
-      const SolverBody& sb = p_.v0[body];
+      const ScalarBody& sb = p_.v0[body];
       for (int i1 : by_body[body]) {
         if (free_index[i1] < 0) continue;  // slipping rows are no equations
         const RefRow& r1 = p_.rows[i1];
@@ -542,7 +544,7 @@ class Solver {
   const Problem& p_;
   double tolerance_;
   std::vector<double> lambda_;
-  std::vector<SolverBody> v_;
+  std::vector<ScalarBody> v_;
 };
 
 Result<ReferenceSolution> solve_prepared(World& copy, const ReferenceOptions& opt) {
@@ -580,7 +582,7 @@ Result<ReferenceSolution> solve_prepared(World& copy, const ReferenceOptions& op
   out.iterations = solver.sweeps;
   out.direct_solves = solver.direct_solves;
   out.regularized = solver.regularized;
-  const std::vector<SolverBody>& v = solver.velocities();
+  const std::vector<ScalarBody>& v = solver.velocities();
   const std::vector<int>& awake = w.scratch_awake;
   auto body_at = [&](int slot) { return slot == 0 ? BodyId{} : w.body_id(awake[slot - 1]); };
   for (size_t i = 0; i < p.rows.size(); ++i) {

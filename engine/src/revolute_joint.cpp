@@ -20,28 +20,28 @@ namespace fulcrum {
 
 namespace {
 
-void apply_angular(double lambda, SolverBody& a, SolverBody& b) {
+void apply_angular(double lambda, ScalarBody& a, ScalarBody& b) {
   a.w -= a.inv_inertia * lambda;
   b.w += b.inv_inertia * lambda;
 }
 
 }  // namespace
 
-void prepare_revolute_joint(const Joint& j, JointRow& r, const SolverBody& a, const SolverBody& b) {
+void prepare_revolute_joint(const Joint& j, JointRow& r, const ScalarBody& a, const ScalarBody& b) {
   double k = a.inv_inertia + b.inv_inertia;
   r.axial_mass = k > 0.0 ? 1.0 / k : 0.0;
   (void)j;
 }
 
-void warm_start_revolute_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b) {
+void warm_start_revolute_joint(const Joint& j, const JointRow& r, ScalarBody& a, ScalarBody& b) {
   JointFrame f = joint_frame(r, a, b);
   double axial = j.spring_impulse + j.motor_impulse + j.lower_impulse - j.upper_impulse;
   apply_joint_impulse(f, j.linear_impulse.x(), j.linear_impulse.y(), a, b);
   apply_angular(axial, a, b);
 }
 
-void solve_revolute_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
-                          SolverBody& b) {
+void solve_revolute_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarBody& a,
+                          ScalarBody& b) {
   const bool turns = a.inv_inertia + b.inv_inertia > 0.0;
   const double theta = r.angle + (b.da - a.da);
 
@@ -99,8 +99,8 @@ void solve_revolute_joint(Joint& j, const JointRow& r, const JointStep& st, Solv
 }
 
 // The point: two rows solved together through K.
-void solve_revolute_point(const JointRow& r, const JointStep& st, double* impulse, SolverBody& a,
-                          SolverBody& b) {
+void solve_revolute_point(const JointRow& r, const JointStep& st, double* impulse, ScalarBody& a,
+                          ScalarBody& b) {
   JointFrame f = joint_frame(r, a, b);
   double cdx = (b.vx - b.w * f.rby) - (a.vx - a.w * f.ray);
   double cdy = (b.vy + b.w * f.rbx) - (a.vy + a.w * f.rax);

@@ -86,7 +86,7 @@ Result<JointId> World::create_spring(const SpringDef& def) {
   return impl_->joint_id(*ji);
 }
 
-void apply_spring_force(Joint& j, const JointRow& r, double h, SolverBody& a, SolverBody& b) {
+void apply_spring_force(Joint& j, const JointRow& r, double h, ScalarBody& a, ScalarBody& b) {
   JointFrame f = joint_frame(r, a, b);
   double len = std::sqrt(f.dx * f.dx + f.dy * f.dy);
   if (len < 1e-12) {
@@ -104,7 +104,10 @@ void apply_spring_force(Joint& j, const JointRow& r, double h, SolverBody& a, So
 void WorldImpl::apply_spring_forces(double h) {
   SolverScratch& s = solver_scratch;
   for (const JointRow& r : s.spring_rows) {
-    apply_spring_force(joints[r.joint], r, h, s.bodies[r.ia], s.bodies[r.ib]);
+    ScalarBody a = scalar_body(s, r.ia), b = scalar_body(s, r.ib);
+    apply_spring_force(joints[r.joint], r, h, a, b);
+    store_velocity(a, s.bodies[r.ia]);
+    store_velocity(b, s.bodies[r.ib]);
   }
 }
 

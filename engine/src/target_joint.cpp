@@ -11,7 +11,7 @@ namespace fulcrum {
 
 namespace {
 
-void apply_to_b(double rbx, double rby, double px, double py, SolverBody& b) {
+void apply_to_b(double rbx, double rby, double px, double py, ScalarBody& b) {
   b.vx += b.inv_mass * px;
   b.vy += b.inv_mass * py;
   b.w += b.inv_inertia * (rbx * py - rby * px);
@@ -19,12 +19,12 @@ void apply_to_b(double rbx, double rby, double px, double py, SolverBody& b) {
 
 }  // namespace
 
-void warm_start_target_joint(const Joint& j, const JointRow& r, SolverBody& b) {
+void warm_start_target_joint(const Joint& j, const JointRow& r, ScalarBody& b) {
   double rbx = b.qc * r.rbx - b.qs * r.rby, rby = b.qs * r.rbx + b.qc * r.rby;
   apply_to_b(rbx, rby, j.linear_impulse.x(), j.linear_impulse.y(), b);
 }
 
-void solve_target_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& b) {
+void solve_target_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarBody& b) {
   double rbx = b.qc * r.rbx - b.qs * r.rby, rby = b.qs * r.rbx + b.qc * r.rby;
   double cdx = b.vx - b.w * rby, cdy = b.vy + b.w * rbx;
   // r.dcx, r.dcy hold centre of B minus the target at the start of the tick.

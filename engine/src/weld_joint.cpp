@@ -9,15 +9,15 @@
 
 namespace fulcrum {
 
-void warm_start_weld_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b) {
+void warm_start_weld_joint(const Joint& j, const JointRow& r, ScalarBody& a, ScalarBody& b) {
   JointFrame f = joint_frame(r, a, b);
   apply_joint_impulse(f, j.linear_impulse.x(), j.linear_impulse.y(), a, b);
   a.w -= a.inv_inertia * j.axial_impulse;
   b.w += b.inv_inertia * j.axial_impulse;
 }
 
-void solve_weld_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
-                      SolverBody& b) {
+void solve_weld_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarBody& a,
+                      ScalarBody& b) {
   // Angle: a spring when the weld has angular_hertz, else rigid with the world's feedback.
   if (a.inv_inertia + b.inv_inertia > 0.0) {
     double c = r.angle + (b.da - a.da);

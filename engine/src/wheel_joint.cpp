@@ -62,7 +62,7 @@ Result<JointId> World::create_wheel_joint(const WheelJointDef& def) {
   return impl_->joint_id(*ji);
 }
 
-void warm_start_wheel_joint(const Joint& j, const JointRow& r, SolverBody& a, SolverBody& b) {
+void warm_start_wheel_joint(const Joint& j, const JointRow& r, ScalarBody& a, ScalarBody& b) {
   LineFrame fr = line_frame(r, a, b);
   double axial = j.spring_impulse + j.lower_impulse - j.upper_impulse;
   double perp = j.linear_impulse.x();
@@ -77,8 +77,8 @@ void warm_start_wheel_joint(const Joint& j, const JointRow& r, SolverBody& a, So
   b.w += b.inv_inertia * lb;
 }
 
-void solve_wheel_joint(Joint& j, const JointRow& r, const JointStep& st, SolverBody& a,
-                       SolverBody& b) {
+void solve_wheel_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarBody& a,
+                       ScalarBody& b) {
   if (j.enable_motor && a.inv_inertia + b.inv_inertia > 0.0) {
     double lambda = -r.axial_mass * ((b.w - a.w) - j.motor_speed);
     double limit = j.max_motor_torque * st.h;

@@ -8,8 +8,8 @@
 namespace fulcrum {
 namespace {
 
-SolverBody body(double m, double i, double vx, double vy, double w) {
-  SolverBody b;
+ScalarBody body(double m, double i, double vx, double vy, double w) {
+  ScalarBody b;
   b.inv_mass = m > 0.0 ? 1.0 / m : 0.0;
   b.inv_inertia = i > 0.0 ? 1.0 / i : 0.0;
   b.vx = vx;
@@ -21,8 +21,8 @@ SolverBody body(double m, double i, double vx, double vy, double w) {
 // An unbounded rigid row with b = 0 removes J v in one update: J M^-1 J^T m_c = 1, so the
 // residual is rounding only (1e-12 on velocities of order 1).
 TEST(ConstraintRow, UnboundedRowSatisfiesItselfInOneUpdate) {
-  SolverBody a = body(2.0, 0.5, 1.0, -2.0, 0.3);
-  SolverBody b = body(1.0, 0.2, -0.5, 0.7, -1.1);
+  ScalarBody a = body(2.0, 0.5, 1.0, -2.0, 0.3);
+  ScalarBody b = body(1.0, 0.2, -0.5, 0.7, -1.1);
   ConstraintRow row;
   row.j = axis_jacobian(Vec2(0.6, 0.8), Vec2(0.3, -0.2), Vec2(-0.4, 0.1));
   row.effective_mass = effective_mass(row.j, a, b);
@@ -33,7 +33,7 @@ TEST(ConstraintRow, UnboundedRowSatisfiesItselfInOneUpdate) {
 // The contact normal's effective mass matches its closed form
 // 1 / (1/ma + 1/mb + (ra x n)^2 / Ia + (rb x n)^2 / Ib).
 TEST(ConstraintRow, AxisRowEffectiveMassMatchesClosedForm) {
-  SolverBody a = body(3.0, 0.7, 0, 0, 0), b = body(1.5, 0.4, 0, 0, 0);
+  ScalarBody a = body(3.0, 0.7, 0, 0, 0), b = body(1.5, 0.4, 0, 0, 0);
   Vec2 n(0.0, 1.0), ra(0.5, 0.5), rb(-0.5, -0.5);
   double rna = cross(ra, n), rnb = cross(rb, n);
   double expected = 1.0 / (1.0 / 3.0 + 1.0 / 1.5 + rna * rna / 0.7 + rnb * rnb / 0.4);
@@ -43,8 +43,8 @@ TEST(ConstraintRow, AxisRowEffectiveMassMatchesClosedForm) {
 // The accumulated impulse is clamped, never the corrective one: a contact row (lower 0)
 // pushes apart but never pulls, and a row already at its bound can come back off it.
 TEST(ConstraintRow, AccumulatedImpulseIsClamped) {
-  SolverBody ground = body(0.0, 0.0, 0, 0, 0);
-  SolverBody box = body(1.0, 0.0, 0.0, 2.0, 0.0);  // separating at 2 m/s
+  ScalarBody ground = body(0.0, 0.0, 0, 0, 0);
+  ScalarBody box = body(1.0, 0.0, 0.0, 2.0, 0.0);  // separating at 2 m/s
   ConstraintRow row;
   row.j = axis_jacobian(Vec2(0.0, 1.0), Vec2::Zero(), Vec2::Zero());
   row.effective_mass = effective_mass(row.j, ground, box);
@@ -58,7 +58,7 @@ TEST(ConstraintRow, AccumulatedImpulseIsClamped) {
 
 // Momentum: a row between two free bodies applies equal and opposite linear impulses.
 TEST(ConstraintRow, RowConservesLinearMomentum) {
-  SolverBody a = body(2.0, 1.0, 1.0, 0.0, 0.0), b = body(3.0, 1.0, -1.0, 0.5, 0.0);
+  ScalarBody a = body(2.0, 1.0, 1.0, 0.0, 0.0), b = body(3.0, 1.0, -1.0, 0.5, 0.0);
   double px = 2.0 * a.vx + 3.0 * b.vx, py = 2.0 * a.vy + 3.0 * b.vy;
   ConstraintRow row;
   row.j = axis_jacobian(Vec2(1.0, 0.0), Vec2(0.0, 0.2), Vec2(0.0, -0.1));
@@ -70,7 +70,7 @@ TEST(ConstraintRow, RowConservesLinearMomentum) {
 
 // An angle row stops relative rotation: after one update wb - wa = 0.
 TEST(ConstraintRow, AngleRowStopsRelativeSpin) {
-  SolverBody a = body(1.0, 0.5, 0, 0, 2.0), b = body(1.0, 0.25, 0, 0, -1.0);
+  ScalarBody a = body(1.0, 0.5, 0, 0, 2.0), b = body(1.0, 0.25, 0, 0, -1.0);
   ConstraintRow row;
   row.j = angle_jacobian();
   row.effective_mass = effective_mass(row.j, a, b);
