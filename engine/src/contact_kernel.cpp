@@ -19,8 +19,9 @@ double solve_scalar(ContactBlock* blocks, int first, int end, SolverBody* bodies
 void warm_scalar(ContactBlock* blocks, int first, int end, SolverBody* bodies) {
   warm_blocks<double>(blocks, first, end, bodies);
 }
-void separation_scalar(ContactBlock* blocks, int first, int end, const SolverBody* bodies) {
-  separation_blocks<double>(blocks, first, end, bodies);
+void separation_scalar(ContactBlock* blocks, const ContactBlockRest* rests, int first, int end,
+                       const SolverBody* bodies) {
+  separation_blocks<double>(blocks, rests, first, end, bodies);
 }
 double solve_x2(ContactBlock* blocks, int first, int end, SolverBody* bodies,
                 const LaneRule& rule) {
@@ -29,8 +30,9 @@ double solve_x2(ContactBlock* blocks, int first, int end, SolverBody* bodies,
 void warm_x2(ContactBlock* blocks, int first, int end, SolverBody* bodies) {
   warm_blocks<F64x2>(blocks, first, end, bodies);
 }
-void separation_x2(ContactBlock* blocks, int first, int end, const SolverBody* bodies) {
-  separation_blocks<F64x2>(blocks, first, end, bodies);
+void separation_x2(ContactBlock* blocks, const ContactBlockRest* rests, int first, int end,
+                   const SolverBody* bodies) {
+  separation_blocks<F64x2>(blocks, rests, first, end, bodies);
 }
 
 void solve_points_scalar(PointBlock* blocks, int first, int end, SolverBody* bodies,
@@ -151,24 +153,24 @@ static_assert(kMaxColours <= 32, "colours are bits of a uint32_t");
 
 namespace {
 
-void clear_point(LanePoint* q, int l) {
+void clear_point(LanePoint* q, LanePointRest* r, int l) {
   q->rax[l] = q->ray[l] = q->rbx[l] = q->rby[l] = 0.0;
-  q->separation[l] = q->base_separation[l] = 0.0;
+  q->separation[l] = r->base_separation[l] = 0.0;
   q->normal_mass[l] = q->tangent_mass[l] = 0.0;
-  q->normal_impulse[l] = q->tangent_impulse[l] = q->max_normal_impulse[l] = 0.0;
+  q->normal_impulse[l] = q->tangent_impulse[l] = r->max_normal_impulse[l] = 0.0;
 }
 
-void clear_lane(ContactBlock* b, int l) {
+void clear_lane(ContactBlock* b, ContactBlockRest* r, int l) {
   b->ia[l] = b->ib[l] = 0;
   b->write_a[l] = b->write_b[l] = 0;
   b->inv_inertia_a[l] = b->inv_inertia_b[l] = 0.0;
   b->nx[l] = b->ny[l] = b->friction[l] = 0.0;
-  clear_point(&b->points[0], l);
-  clear_point(&b->points[1], l);
+  clear_point(&b->points[0], &r->points[0], l);
+  clear_point(&b->points[1], &r->points[1], l);
 }
 
 void write_lane(const SolverBody* bodies, const SolverBodyExtra* extras, const ContactRow& row,
-                ContactBlock* b, int l) {
+                ContactBlock* b, ContactBlockRest* rest, int l) {
   b->ia[l] = row.ia;
   b->ib[l] = row.ib;
   b->write_a[l] = bodies[row.ia].inv_mass > 0.0;
@@ -180,8 +182,9 @@ void write_lane(const SolverBody* bodies, const SolverBodyExtra* extras, const C
   b->friction[l] = row.friction;
   for (int i = 0; i < 2; ++i) {
     LanePoint* q = &b->points[i];
+    LanePointRest* r = &rest->points[i];
     if (i >= row.count) {
-      clear_point(q, l);  // a one-point manifold's second point changes nothing
+      clear_point(q, r, l);  // a one-point manifold's second point changes nothing
       continue;
     }
     const ContactPointRow& p = row.points[i];
@@ -189,12 +192,12 @@ void write_lane(const SolverBody* bodies, const SolverBodyExtra* extras, const C
     q->ray[l] = p.ray;
     q->rbx[l] = p.rbx;
     q->rby[l] = p.rby;
-    q->base_separation[l] = p.base_separation;
+    r->base_separation[l] = p.base_separation;
     q->normal_mass[l] = p.normal_mass;
     q->tangent_mass[l] = p.tangent_mass;
     q->normal_impulse[l] = p.normal_impulse;
     q->tangent_impulse[l] = p.tangent_impulse;
-    q->max_normal_impulse[l] = p.max_normal_impulse;
+    r->max_normal_impulse[l] = p.max_normal_impulse;
   }
 }
 
@@ -257,17 +260,21 @@ void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<Solve
   // Lanes in id order within each colour; pack_row then fills each row's lane.
   for (size_t k = 0; k < n_rows; ++k) lane_of_row[k] = next_lane[lane_of_row[k]]++;
   out->blocks.resize(layout.blocks);
+  out->rests.resize(layout.blocks);
   // Empty lanes at the end of each colour and of the overflow: the static body on both sides,
   // zero masses, nothing written.
-  pad_colours(layout, &out->blocks, clear_lane);
+  pad_colours(layout, &out->blocks, [out](ContactBlock* b, int l) {
+    clear_lane(b, &out->rests[b - out->blocks.data()], l);
+  });
 }
 
 void pack_row(const SolverBody* bodies, const SolverBodyExtra* extras, const ContactRow& row,
               size_t k, ColouredContacts* cc) {
   const int lane_index = cc->lane_of_row[k];
   ContactBlock* block = &cc->blocks[lane_index / kBlockLanes];
-  write_lane(bodies, extras, row, block, lane_index % kBlockLanes);
-  separation_lanes<double>(*block, lane_index % kBlockLanes, bodies);
+  ContactBlockRest* rest = &cc->rests[lane_index / kBlockLanes];
+  write_lane(bodies, extras, row, block, rest, lane_index % kBlockLanes);
+  separation_lanes<double>(*block, *rest, lane_index % kBlockLanes, bodies);
 }
 
 // --- Passes ----------------------------------------------------------------------------------
@@ -303,9 +310,11 @@ int chunk_count(int first, int end) {
 
 }  // namespace
 
-double solve_coloured(ColouredContacts& cc, SolverBody* bodies, const LaneRule& rule,
+double solve_coloured(ColouredContacts& cc, SolverBody* bodies, const LaneRule& pass_rule,
                       WorkerPool* pool) {
   const PathFns fns = path_fns();
+  LaneRule rule = pass_rule;
+  rule.rests = cc.rests.data();
   ContactBlock* blocks = cc.blocks.data();
   double largest = 0.0;
   for (int c = 0; c < cc.colours; ++c) {
@@ -338,12 +347,12 @@ void update_separations(ColouredContacts& cc, const SolverBody* bodies, WorkerPo
   const int end = static_cast<int>(cc.blocks.size());
   const int chunks = chunk_count(0, end);
   if (pool == nullptr || chunks < 2) {
-    fns.separation(blocks, 0, end, bodies);
+    fns.separation(blocks, cc.rests.data(), 0, end, bodies);
     return;
   }
   auto chunk = [&](int i) {
     const int b = i * kBlocksPerChunk;
-    fns.separation(blocks, b, std::min(b + kBlocksPerChunk, end), bodies);
+    fns.separation(blocks, cc.rests.data(), b, std::min(b + kBlocksPerChunk, end), bodies);
   };
   pool->run(chunks, chunk);
 }

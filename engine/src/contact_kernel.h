@@ -326,30 +326,32 @@ FULCRUM_LANE_INLINE void load_motion_rows(const Block& k, int l0, const SolverBo
 
 // Separation now, from the bodies' motion since the tick began (anchors turned with them).
 template <class V>
-FULCRUM_LANE_INLINE void separation_lanes(ContactBlock& k, int l0, const SolverBody* bodies) {
+FULCRUM_LANE_INLINE void separation_lanes(ContactBlock& k, const ContactBlockRest& rest, int l0,
+                                          const SolverBody* bodies) {
   using L = Lane<V>;
   V a[4], b[4];
   load_motion_rows<V>(k, l0, bodies, a, b);
   const V ddx = b[0] - a[0], ddy = b[1] - a[1];
   const V qca = a[2], qsa = a[3], qcb = b[2], qsb = b[3];
   const V nx = L::load(k.nx + l0), ny = L::load(k.ny + l0);
-  for (LanePoint& p : k.points) {
+  for (int i = 0; i < 2; ++i) {
+    LanePoint& p = k.points[i];
     const V rax = L::load(p.rax + l0), ray = L::load(p.ray + l0);
     const V rbx = L::load(p.rbx + l0), rby = L::load(p.rby + l0);
     V ax = qca * rax - qsa * ray, ay = qsa * rax + qca * ray;
     V bx = qcb * rbx - qsb * rby, by = qsb * rbx + qcb * rby;
     V dx = ddx + (bx - ax), dy = ddy + (by - ay);
-    L::store(p.separation + l0, dx * nx + dy * ny + L::load(p.base_separation + l0));
+    L::store(p.separation + l0, dx * nx + dy * ny + L::load(rest.points[i].base_separation + l0));
   }
 }
 
 // One pass over a group of lanes: both normal rows, then both friction rows (contact_solver.cpp
 // states the rows). Returns the largest corrective impulse of the lanes.
 template <class V, bool kRefresh>
-FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, int l0, SolverBody* bodies,
-                                  const LaneRule& rule) {
+FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, ContactBlockRest& rest, int l0,
+                                  SolverBody* bodies, const LaneRule& rule) {
   using L = Lane<V>;
-  if constexpr (kRefresh) separation_lanes<V>(k, l0, bodies);
+  if constexpr (kRefresh) separation_lanes<V>(k, rest, l0, bodies);
   LaneBodies<V> v(k, l0, bodies);
   const V zero = L::splat(0.0), one = L::splat(1.0);
   const V inv_h = L::splat(rule.inv_h), neg_max_speed = L::splat(-rule.max_speed);
@@ -365,7 +367,8 @@ FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, int l0, SolverBody* bodies,
   const V soft_impulse_scale = lane_select(fixed, L::splat(rule.static_soft.impulse_scale),
                                            L::splat(rule.soft.impulse_scale));
   V largest = zero;
-  for (LanePoint& p : k.points) {
+  for (int i = 0; i < 2; ++i) {
+    LanePoint& p = k.points[i];
     const V rax = L::load(p.rax + l0), ray = L::load(p.ray + l0);
     const V rbx = L::load(p.rbx + l0), rby = L::load(p.rby + l0);
     const V sep = L::load(p.separation + l0);
@@ -391,7 +394,8 @@ FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, int l0, SolverBody* bodies,
     lambda = acc - old;
     L::store(p.normal_impulse + l0, acc);
     if (rule.track_max) {
-      L::store(p.max_normal_impulse + l0, lane_max(L::load(p.max_normal_impulse + l0), acc));
+      double* max_normal = rest.points[i].max_normal_impulse + l0;
+      L::store(max_normal, lane_max(L::load(max_normal), acc));
     }
     v.apply(ima, iia, imb, iib, rax, ray, rbx, rby, lambda * nx, lambda * ny);
     if (rule.want_largest) largest = lane_max(largest, lane_max(lambda, -lambda));
@@ -425,11 +429,18 @@ double solve_blocks_as(ContactBlock* blocks, int first, int end, SolverBody* bod
   V largest = L::splat(0.0);
   for (int k = first; k < end; ++k) {
     // Fetch ahead while this block is solved: the block three on (a pass streams more
-    // blocks than the cache holds), and the next block's bodies' velocity rows.
+    // blocks than the cache holds) with its rest where this pass reads it, and the next
+    // block's bodies' velocity rows.
     if (k + 3 < end) {
       const char* far = reinterpret_cast<const char*>(&blocks[k + 3]);
       for (size_t line = 0; line < sizeof(ContactBlock); line += 64) {
         __builtin_prefetch(far + line);
+      }
+      if (kRefresh || rule.track_max) {
+        const char* rest = reinterpret_cast<const char*>(&rule.rests[k + 3]);
+        for (size_t line = 0; line < sizeof(ContactBlockRest); line += 64) {
+          __builtin_prefetch(rest + line);
+        }
       }
     }
     if (k + 1 < end) {
@@ -440,7 +451,8 @@ double solve_blocks_as(ContactBlock* blocks, int first, int end, SolverBody* bod
       }
     }
     for (int l0 = 0; l0 < kBlockLanes; l0 += L::kCount) {
-      largest = lane_max(largest, solve_lanes<V, kRefresh>(blocks[k], l0, bodies, rule));
+      largest =
+          lane_max(largest, solve_lanes<V, kRefresh>(blocks[k], rule.rests[k], l0, bodies, rule));
     }
   }
   double out = L::get(largest, 0);
@@ -458,10 +470,11 @@ double solve_blocks(ContactBlock* blocks, int first, int end, SolverBody* bodies
 }
 
 template <class V>
-void separation_blocks(ContactBlock* blocks, int first, int end, const SolverBody* bodies) {
+void separation_blocks(ContactBlock* blocks, const ContactBlockRest* rests, int first, int end,
+                       const SolverBody* bodies) {
   for (int k = first; k < end; ++k) {
     for (int l0 = 0; l0 < kBlockLanes; l0 += Lane<V>::kCount) {
-      separation_lanes<V>(blocks[k], l0, bodies);
+      separation_lanes<V>(blocks[k], rests[k], l0, bodies);
     }
   }
 }

@@ -21,9 +21,9 @@ void FULCRUM_X4_NAME(warm)(ContactBlock* blocks, int first, int end, SolverBody*
   warm_blocks<LanePair<F64x4>>(blocks, first, end, bodies);
 }
 
-void FULCRUM_X4_NAME(separation)(ContactBlock* blocks, int first, int end,
-                                 const SolverBody* bodies) {
-  separation_blocks<F64x4>(blocks, first, end, bodies);
+void FULCRUM_X4_NAME(separation)(ContactBlock* blocks, const ContactBlockRest* rests, int first,
+                                 int end, const SolverBody* bodies) {
+  separation_blocks<F64x4>(blocks, rests, first, end, bodies);
 }
 
 void FULCRUM_X4_NAME(solve_points)(PointBlock* blocks, int first, int end, SolverBody* bodies,

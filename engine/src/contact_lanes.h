@@ -35,8 +35,13 @@ struct alignas(64) LanePoint {
   double tangent_mass[kBlockLanes];
   double normal_impulse[kBlockLanes];  // accumulated
   double tangent_impulse[kBlockLanes];
+};
+
+// What few passes read of a point's lanes, kept beside the blocks (ColouredContacts::rests)
+// so that the warm-start and solve passes stream two lines fewer per point.
+struct alignas(64) LanePointRest {
+  double base_separation[kBlockLanes];     // read where the separations are refreshed
   double max_normal_impulse[kBlockLanes];  // tracked only when restitution needs it
-  double base_separation[kBlockLanes];
 };
 
 // The inverse masses are not here: the lanes read them with the bodies' velocities. Nor is the
@@ -51,6 +56,10 @@ struct alignas(64) ContactBlock {
   LanePoint points[2];  // a one-point manifold's second point has zero masses
 };
 
+struct ContactBlockRest {
+  LanePointRest points[2];
+};
+
 // What one pass needs besides the blocks.
 struct LaneRule {
   double inv_h = 0.0;
@@ -61,14 +70,16 @@ struct LaneRule {
   // The bodies moved since the separations were computed: each lane refreshes its points'
   // separations before it is solved (what update_separations does, fused into the pass).
   bool refresh_separation = false;
-  Softness soft;         // between two dynamic bodies
-  Softness static_soft;  // with a body of infinite mass (static, kinematic)
+  Softness soft;                      // between two dynamic bodies
+  Softness static_soft;               // with a body of infinite mass (static, kinematic)
+  ContactBlockRest* rests = nullptr;  // the blocks' rests (solve_coloured sets it)
 };
 
 // The coloured blocks of one tick. Blocks [colour_start[c], colour_start[c + 1]) hold colour
 // c; blocks from colour_start[colours] on hold the overflow, `overflow` lanes in id order.
 struct ColouredContacts {
   std::vector<ContactBlock> blocks;
+  std::vector<ContactBlockRest> rests;  // block for block
   std::vector<int> colour_start;
   int colours = 0;
   int overflow = 0;
@@ -124,20 +135,20 @@ namespace lanes {
 using SolveFn = double (*)(ContactBlock* blocks, int first_block, int end_block, SolverBody* bodies,
                            const LaneRule& rule);
 using WarmFn = void (*)(ContactBlock* blocks, int first_block, int end_block, SolverBody* bodies);
-using SeparationFn = void (*)(ContactBlock* blocks, int first_block, int end_block,
-                              const SolverBody* bodies);
+using SeparationFn = void (*)(ContactBlock* blocks, const ContactBlockRest* rests, int first_block,
+                              int end_block, const SolverBody* bodies);
 double solve_scalar(ContactBlock*, int, int, SolverBody*, const LaneRule&);
 void warm_scalar(ContactBlock*, int, int, SolverBody*);
-void separation_scalar(ContactBlock*, int, int, const SolverBody*);
+void separation_scalar(ContactBlock*, const ContactBlockRest*, int, int, const SolverBody*);
 double solve_x2(ContactBlock*, int, int, SolverBody*, const LaneRule&);
 void warm_x2(ContactBlock*, int, int, SolverBody*);
-void separation_x2(ContactBlock*, int, int, const SolverBody*);
+void separation_x2(ContactBlock*, const ContactBlockRest*, int, int, const SolverBody*);
 double solve_x4(ContactBlock*, int, int, SolverBody*, const LaneRule&);
 void warm_x4(ContactBlock*, int, int, SolverBody*);
-void separation_x4(ContactBlock*, int, int, const SolverBody*);
+void separation_x4(ContactBlock*, const ContactBlockRest*, int, int, const SolverBody*);
 double solve_x4e(ContactBlock*, int, int, SolverBody*, const LaneRule&);  // AVX-512F and VL
 void warm_x4e(ContactBlock*, int, int, SolverBody*);
-void separation_x4e(ContactBlock*, int, int, const SolverBody*);
+void separation_x4e(ContactBlock*, const ContactBlockRest*, int, int, const SolverBody*);
 }  // namespace lanes
 
 // Blocks per chunk when a colour is shared out among threads: a constant, so that which

@@ -715,8 +715,9 @@ PointImpulses impulses_of(SolverScratch& s, ColouredContacts* lanes, size_t k, i
   }
   const int lane = lanes->lane_of_row[k];
   LanePoint& q = lanes->blocks[lane / kBlockLanes].points[i];
+  LanePointRest& r = lanes->rests[lane / kBlockLanes].points[i];
   const int l = lane % kBlockLanes;
-  return {&q.normal_impulse[l], &q.tangent_impulse[l], &q.max_normal_impulse[l]};
+  return {&q.normal_impulse[l], &q.tangent_impulse[l], &r.max_normal_impulse[l]};
 }
 
 // Bounce: points that approached faster than the threshold and carried load leave with
