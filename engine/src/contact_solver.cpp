@@ -83,12 +83,13 @@ inline double current_separation(const Body& a, const Body& b, const ContactPoin
   return dx * nx + dy * ny + p.base_separation;
 }
 
-void load_bodies(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s) {
+// `pseudo`: the tick solves split impulses, whose pseudo velocities get an array of their own.
+void load_bodies(WorldImpl& w, const std::vector<int>& awake, bool pseudo, SolverScratch& s) {
   s.bodies.resize(awake.size() + 1);
   s.body_extras.resize(awake.size() + 1);
   s.bodies[0] = SolverBody{};  // the shared static body: zero velocity, infinite mass
   s.body_extras[0] = SolverBodyExtra{};
-  if (w.settings.contact_hertz == 0.0 && w.settings.split_impulses) {
+  if (pseudo) {
     s.pseudo.assign(awake.size() + 1, PseudoVelocity{});
   } else {
     s.pseudo.clear();
@@ -818,7 +819,7 @@ void WorldImpl::solve_group(const std::vector<int>& awake,
   BiasRule relax = rule;
   relax.use_bias = false;
 
-  load_bodies(*this, awake, s);
+  load_bodies(*this, awake, rule.rigid && rule.split, s);
   s.contacts.assign(contacts_sorted.begin(), contacts_sorted.end());
   s.drives.resize(awake.size());
   // Soft contacts are solved colour by colour in lanes (contact_lanes.h); rigid contacts (the
@@ -916,7 +917,7 @@ void WorldImpl::prepare_reference_tick() {
   SolverScratch& s = solver_scratch;
   const double h = settings.dt;
   budget.base_substeps = settings.substeps;  // impulses as kept, not rescaled
-  load_bodies(*this, awake, s);
+  load_bodies(*this, awake, false, s);       // the reference solver moves no body
   s.contacts.assign(touching_contacts.begin(), touching_contacts.end());
   prepare(*this, s, h, nullptr);
   prepare_joints(awake, h);
