@@ -87,6 +87,10 @@ inline double current_separation(const Body& a, const Body& b, const ContactPoin
 void load_bodies(WorldImpl& w, const std::vector<int>& awake, bool pseudo, SolverScratch& s) {
   s.bodies.resize(awake.size() + 1);
   s.body_extras.resize(awake.size() + 1);
+  s.slot_body.resize(awake.size() + 1);
+  s.centres.resize(awake.size() + 1);
+  s.slot_body[0] = -1;
+  s.centres[0] = SlotCentre{};
   s.bodies[0] = SolverBody{};  // the shared static body: zero velocity, infinite mass
   s.body_extras[0] = SolverBodyExtra{};
   if (pseudo) {
@@ -98,6 +102,8 @@ void load_bodies(WorldImpl& w, const std::vector<int>& awake, bool pseudo, Solve
   for (size_t k = 0; k < awake.size(); ++k) {
     const Body& b = w.bodies[awake[k]];
     s.body_slot[awake[k]] = static_cast<int>(k + 1);
+    s.slot_body[k + 1] = awake[k];
+    s.centres[k + 1] = SlotCentre{b.center.x(), b.center.y()};
     SolverBody& sb = s.bodies[k + 1];
     sb = SolverBody{};
     sb.vx = b.v.x();
@@ -233,11 +239,15 @@ RowRule row_rule(const WorldImpl& w, double h) {
 }
 
 // The solver body slots of a contact's bodies (0, the shared static body, for a body not awake).
-RowBodies row_bodies(const WorldImpl& w, const SolverScratch& s, const Contact& c) {
-  const Body& body_a = w.bodies[c.body_a];
-  const Body& body_b = w.bodies[c.body_b];
-  return RowBodies{body_a.awake ? s.body_slot[c.body_a] : 0,
-                   body_b.awake ? s.body_slot[c.body_b] : 0};
+RowBodies row_bodies(const SolverScratch& s, const Contact& c) {
+  return RowBodies{solver_slot(s, c.body_a), solver_slot(s, c.body_b)};
+}
+
+// Body `body`'s centre of mass at the tick's start, from its solver slot: a row reads a Body
+// only for a body in slot 0 (static or asleep), whose centre the slot cannot hold.
+Vec2 centre_of(const WorldImpl& w, const SolverScratch& s, int slot, int body) {
+  if (slot == 0) return w.bodies[body].center;
+  return Vec2(s.centres[slot].x, s.centres[slot].y);
 }
 
 // Row k (contact s.contacts[k], its bodies in solver slots `slots`): depends only on its own
@@ -246,8 +256,8 @@ RowBodies row_bodies(const WorldImpl& w, const SolverScratch& s, const Contact& 
 void prepare_row(const WorldImpl& w, const SolverScratch& s, const RowRule& r, size_t k,
                  const RowBodies& slots, ContactRow& row, ContactRowExtra& extra) {
   const Contact& c = w.contacts[s.contacts[k]];
-  const Body& body_a = w.bodies[c.body_a];
-  const Body& body_b = w.bodies[c.body_b];
+  const Vec2 centre_a = centre_of(w, s, slots.ia, c.body_a);
+  const Vec2 centre_b = centre_of(w, s, slots.ib, c.body_b);
   extra.contact = s.contacts[k];
   extra.restitution = c.restitution;
   row.ia = slots.ia;
@@ -265,10 +275,10 @@ void prepare_row(const WorldImpl& w, const SolverScratch& s, const RowRule& r, s
   for (int i = 0; i < row.count; ++i) {
     const ManifoldPoint& mp = c.manifold.points[i];
     ContactPointRow& p = row.points[i];
-    p.rax = mp.point.x() - body_a.center.x();
-    p.ray = mp.point.y() - body_a.center.y();
-    p.rbx = mp.point.x() - body_b.center.x();
-    p.rby = mp.point.y() - body_b.center.y();
+    p.rax = mp.point.x() - centre_a.x();
+    p.ray = mp.point.y() - centre_a.y();
+    p.rbx = mp.point.x() - centre_b.x();
+    p.rby = mp.point.y() - centre_b.y();
     p.base_separation = mp.separation - ((p.rbx - p.rax) * nx + (p.rby - p.ray) * ny);
     double rna = p.rax * ny - p.ray * nx, rnb = p.rbx * ny - p.rby * nx;
     double kn = m + a.inv_inertia * rna * rna + b.inv_inertia * rnb * rnb;
@@ -330,7 +340,7 @@ void prepare(WorldImpl& w, SolverScratch& s, double h, WorkerPool* pool) {
   const RowRule r = row_rule(w, h);
   for_chunks(pool, n_rows, 256, [&](size_t lo, size_t hi) {
     for (size_t k = lo; k < hi; ++k) {
-      const RowBodies slots = row_bodies(w, s, w.contacts[s.contacts[k]]);
+      const RowBodies slots = row_bodies(s, w.contacts[s.contacts[k]]);
       prepare_row(w, s, r, k, slots, s.rows[k], s.extras[k]);
     }
   });
@@ -354,7 +364,7 @@ void prepare_coloured(WorldImpl& w, SolverScratch& s, double h, ColouredContacts
   for_chunks(pool, n_rows, 256, [&](size_t lo, size_t hi) {
     for (size_t k = lo; k < hi; ++k) {
       const Contact& c = w.contacts[s.contacts[k]];
-      s.row_bodies[k] = row_bodies(w, s, c);
+      s.row_bodies[k] = row_bodies(s, c);
       s.row_bounces[k] = c.restitution != 0.0;
     }
   });

@@ -4,6 +4,7 @@
 // what restitution and the rigid block solver need lives apart in ContactRowExtra.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -27,6 +28,12 @@ struct SolverBodyExtra {
   double inv_inertia = 0.0;
   double da = 0.0;  // angle turned since the tick began (sum of h w); kept only while a joint
                     // row reads it (SolverScratch::track_angles)
+};
+
+// A solver body's centre of mass at the tick's start, for preparing the rows without reading
+// the bodies (slot 0 has none: the static bodies it stands for each have their own).
+struct SlotCentre {
+  double x = 0.0, y = 0.0;
 };
 
 // Rigid contacts with split impulses: the velocity that moves a body out of overlap this
@@ -130,8 +137,10 @@ struct SolverScratch {
   // Whether this tick's joint rows read the angles turned (SolverBodyExtra::da): the substeps
   // add them up only then.
   bool track_angles = false;
-  std::vector<BodyDrive> drives;  // per awake body (slot k + 1's is drives[k])
-  std::vector<int> body_slot;     // body index -> solver slot (0 for bodies not solved)
+  std::vector<BodyDrive> drives;    // per awake body (slot k + 1's is drives[k])
+  std::vector<int> body_slot;       // body index -> solver slot (stale for bodies not solved)
+  std::vector<int> slot_body;       // solver slot -> body index (-1 for slot 0)
+  std::vector<SlotCentre> centres;  // beside bodies, slot for slot
   // Soft contacts keep rows and extras only for contacts with restitution; their other rows
   // live in the coloured lanes (contact_lanes.h).
   std::vector<ContactRow> rows;
@@ -150,6 +159,13 @@ struct SolverScratch {
 
 inline ScalarBody scalar_body(const SolverScratch& s, int slot) {
   return scalar_body(s.bodies[slot], s.body_extras[slot]);
+}
+
+// The solver slot of body `body` in this group, 0 (the shared static body) when the group does
+// not solve it: asleep, static, or another group's. Reads no Body.
+inline int solver_slot(const SolverScratch& s, int body) {
+  const int k = s.body_slot[body];
+  return k > 0 && static_cast<size_t>(k) < s.slot_body.size() && s.slot_body[k] == body ? k : 0;
 }
 
 }  // namespace fulcrum
