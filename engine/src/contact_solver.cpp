@@ -390,40 +390,32 @@ void prepare_coloured(WorldImpl& w, SolverScratch& s, double h, ColouredContacts
 // Restitution needs the speed of approach at impact, not at the start of the tick. Within a
 // substep the relative normal acceleration a = (v1 - v0) / h is constant, so a gap s closes
 // at speed sqrt(v0^2 - 2 a s) (v^2 = v0^2 + 2 a (gap - s) at gap = 0): the exact impact speed
-// of the continuous motion, instead of a speed up to |a| h too slow.
-void record_speed_before(SolverScratch& s, size_t first, size_t end) {
-  for (size_t r = first; r < end; ++r) {
-    const int k = s.restitution_rows[r];
-    const ContactRow& row = s.rows[k];
-    for (int i = 0; i < row.count; ++i) {
-      s.extras[k].speed_before[i] =
-          normal_speed(s.bodies[row.ia], s.bodies[row.ib], row.points[i], row.nx, row.ny);
-    }
+// of the continuous motion, instead of a speed up to |a| h too slow. v0 comes from each body's
+// velocity before the substep's forces, kept here for all slots at once (one pass in slot
+// order), v1 from the velocities after them: the rows are read once per substep.
+void record_velocities(SolverScratch& s, size_t first, size_t end) {
+  for (size_t k = first; k < end; ++k) {
+    const SolverBody& b = s.bodies[k];
+    s.velocity_before[k] = VelocityBefore{b.vx, b.vy, b.w};
   }
 }
 
-// `lanes`: the coloured blocks, whose separations are current (the same numbers
-// current_separation gives, computed the same way); null for rigid contacts.
-void track_approach(SolverScratch& s, double inv_h, const ColouredContacts* lanes, size_t first,
-                    size_t end) {
+// The gap from the row and its bodies: with lanes, the same number the lane holds (computed the
+// same way, and the bodies have not moved since), without reading the lane's block.
+void track_approach(SolverScratch& s, double inv_h, size_t first, size_t end) {
   for (size_t r = first; r < end; ++r) {
     const int k = s.restitution_rows[r];
     const ContactRow& row = s.rows[k];
     ContactRowExtra& extra = s.extras[k];
     const SolverBody& a = s.bodies[row.ia];
     const SolverBody& b = s.bodies[row.ib];
+    const VelocityBefore& a0 = s.velocity_before[row.ia];
+    const VelocityBefore& b0 = s.velocity_before[row.ib];
     for (int i = 0; i < row.count; ++i) {
       const ContactPointRow& p = row.points[i];
-      double v0 = extra.speed_before[i];
+      double v0 = normal_speed(a0, b0, p, row.nx, row.ny);
       double v1 = normal_speed(a, b, p, row.nx, row.ny);
-      double separation;
-      if (lanes != nullptr) {
-        const int lane = lanes->lane_of_row[k];
-        separation = lanes->blocks[lane / kBlockLanes].points[i].separation[lane % kBlockLanes];
-      } else {
-        separation = current_separation(a, b, p, row.nx, row.ny);
-      }
-      double gap = std::max(separation, 0.0);
+      double gap = std::max(current_separation(a, b, p, row.nx, row.ny), 0.0);
       double accel = (v1 - v0) * inv_h;
       double impact = -std::sqrt(std::max(v0 * v0 - 2.0 * accel * gap, 0.0));
       double speed = v0 < 0.0 || accel < 0.0 ? std::min(v1, impact) : v1;
@@ -865,15 +857,17 @@ void WorldImpl::solve_group(const std::vector<int>& awake,
                     : solve_contacts(s, r);
   };
   for (int sub = 0; sub < set.substeps; ++sub) {
-    for_chunks(workers, s.restitution_rows.size(), 256,
-               [&](size_t lo, size_t hi) { record_speed_before(s, lo, hi); });
+    if (!s.restitution_rows.empty()) {
+      s.velocity_before.resize(s.bodies.size());
+      for_chunks(workers, s.bodies.size(), 1024,
+                 [&](size_t lo, size_t hi) { record_velocities(s, lo, hi); });
+    }
     // Applied forces, all from the state at the substep's start (explicit), then constraints.
     apply_spring_forces(h);
     for_chunks(workers, awake.size(), 256,
                [&](size_t lo, size_t hi) { integrate_velocities(*this, awake, s, h, lo, hi); });
-    for_chunks(workers, s.restitution_rows.size(), 256, [&](size_t lo, size_t hi) {
-      track_approach(s, 1.0 / h, coloured ? &coloured_contacts : nullptr, lo, hi);
-    });
+    for_chunks(workers, s.restitution_rows.size(), 256,
+               [&](size_t lo, size_t hi) { track_approach(s, 1.0 / h, lo, hi); });
     // Later substeps always start from the impulses of the one before.
     if (set.warm_starting || sub > 0) {
       warm_start_joints(workers);

@@ -36,6 +36,11 @@ struct SlotCentre {
   double x = 0.0, y = 0.0;
 };
 
+// A solver body's velocity before a substep's forces, kept for restitution's approach speeds.
+struct VelocityBefore {
+  double vx = 0.0, vy = 0.0, w = 0.0;
+};
+
 // Rigid contacts with split impulses: the velocity that moves a body out of overlap this
 // substep and is then forgotten.
 struct PseudoVelocity {
@@ -111,7 +116,6 @@ struct ContactRowExtra {
   int contact = -1;
   double restitution = 0.0;
   double approach_speed[2] = {0.0, 0.0};   // normal relative velocity at impact
-  double speed_before[2] = {0.0, 0.0};     // before this substep's forces
   double pseudo_impulse[2] = {0.0, 0.0};   // split impulses, accumulated
   double k11 = 0.0, k12 = 0.0, k22 = 0.0;  // block solver: effective-mass matrix K
   double i11 = 0.0, i12 = 0.0, i22 = 0.0;  // and its inverse
@@ -152,6 +156,8 @@ struct SolverScratch {
   std::vector<uint8_t> row_bounces;  // soft contacts: whether each row's contact has restitution
   std::vector<int> contacts;
   std::vector<int> restitution_rows;  // rows with restitution > 0
+  // With restitution rows: each slot's velocity before this substep's forces.
+  std::vector<VelocityBefore> velocity_before;
   std::vector<int> joints;            // awake joints, by id
   std::vector<JointRow> joint_rows;   // constraints
   std::vector<JointRow> spring_rows;  // spring force elements
