@@ -250,13 +250,19 @@ bool WorldImpl::plan_joint_needs(const std::vector<int>& awake, double g) {
   std::vector<double>& mass = budget.mass;
   std::vector<double>& weakest = budget.weakest;
   weakest.assign(n, 0.0);
+  std::vector<uint8_t>& held = budget.held;
+  held.assign(n, 0);
   bool any = false;
   // Each joint that is not a spring: its awake dynamic bodies' weakest pair, and both joined
-  // when both are awake and dynamic.
+  // when both are awake and dynamic. Any joint: whether it holds its body to a moving
+  // kinematic body or drives it against a body of infinite mass (for plan_budgets, in this
+  // walk over the joints so that a tick makes one).
   each_awake_joint_end(*this, awake, [&](const Joint& j, int k, int other) {
+    const Body& o = bodies[other];
+    const bool driven = j.enable_motor || j.type == JointType::kMotor;
+    if (!o.is_dynamic() && (o.awake || driven)) held[k] = 1;
     if (j.type == JointType::kSpring) return;
     any = true;
-    const Body& o = bodies[other];
     weakest[k] = std::max(weakest[k], bodies[awake[k]].inv_mass + o.inv_mass);
     if (o.is_dynamic() && o.awake) unite(parent, k, slot[other] - 1);
   });
@@ -383,12 +389,11 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   std::vector<uint8_t>& island_passes = budget.island_passes;
   island_passes.assign(n, one_pass ? 0 : 1);
   // A dynamic body jointed to a moving kinematic body, or driven against a body of infinite
-  // mass.
-  each_awake_joint_end(*this, awake, [&](const Joint& j, int k, int other) {
-    const Body& o = bodies[other];
-    const bool driven = j.enable_motor || j.type == JointType::kMotor;
-    if (!o.is_dynamic() && (o.awake || driven)) island_need[k] = -1;
-  });
+  // mass (plan_joint_needs found them).
+  const std::vector<uint8_t>& held = budget.held;
+  for (int k = 0; k < n; ++k) {
+    if (held[k]) island_need[k] = -1;
+  }
   // Touching contacts, from collide's list (in id order: far cheaper than walking every body's
   // list, and the islands are the same whatever the order).
   for (const int ci : touching_contacts) {

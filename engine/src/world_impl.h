@@ -212,7 +212,7 @@ class WorldImpl {
   bool one_pass_tick(const std::vector<int>& awake_sorted) const;
   // plan_budgets' joint part: joins the joint components in scratch_parent and, unless
   // `gravity` is 0 (joint budgets off), sets each component root's need in budget.need; true
-  // when one needs more than the world's substeps.
+  // when one needs more than the world's substeps. Marks budget.held as it walks the joints.
   bool plan_joint_needs(const std::vector<int>& awake_sorted, double gravity);
   // The reference solver's start of a tick (reference.cpp): what World::step does before its
   // first velocity pass, with one substep of dt: broad phase, collision, the awake set in id
@@ -261,6 +261,9 @@ class WorldImpl {
     std::vector<uint8_t> body_unsettled;  // per body: one of its touching contacts is unsettled
     std::vector<int> recovering;          // this step's recovering contacts, in id order
     std::vector<int> need, island_need;
+    // Per body: a joint holds it to a moving kinematic body or drives it against a body of
+    // infinite mass (plan_joint_needs).
+    std::vector<uint8_t> held;
     std::vector<int> group_of;                  // per position in the awake set: its group
     std::vector<int> relax_need, island_relax;  // per body, then per island root
     std::vector<uint8_t> island_passes;  // per island root: 1 keeps the world's velocity passes
