@@ -523,6 +523,9 @@ void WorldImpl::solve(const std::vector<int>& awake) {
   const int relax = settings.relax_iterations;
   const double cap = settings.max_correction_speed;
   budget.max_iterations = 0;
+  // Each group prepares its own joints (solver_scratch.joints); break_joints wants them all.
+  std::vector<int>& solved_joints = budget.solved_joints;
+  solved_joints.clear();
   for (const BudgetGroup& grp : budget.groups) {
     settings.substeps = grp.substeps;
     settings.relax_iterations = grp.relax;
@@ -532,7 +535,11 @@ void WorldImpl::solve(const std::vector<int>& awake) {
     settings.joint_hertz = joint_hertz * grp.substeps / substeps;
     settings.contact_hertz = contact_hertz * grp.substeps / substeps;
     solve_group(grp.bodies, grp.contacts);
+    solved_joints.insert(solved_joints.end(), solver_scratch.joints.begin(),
+                         solver_scratch.joints.end());
   }
+  std::sort(solved_joints.begin(), solved_joints.end());
+  solver_scratch.joints.assign(solved_joints.begin(), solved_joints.end());
   settings.substeps = substeps;
   settings.velocity_iterations = iterations;
   settings.joint_hertz = joint_hertz;

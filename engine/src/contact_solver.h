@@ -158,7 +158,7 @@ struct SolverScratch {
   std::vector<int> restitution_rows;  // rows with restitution > 0
   // With restitution rows: each slot's velocity before this substep's forces.
   std::vector<VelocityBefore> velocity_before;
-  std::vector<int> joints;            // awake joints, by id
+  std::vector<int> joints;            // awake joints, by id (after solve: every group's)
   std::vector<JointRow> joint_rows;   // constraints
   std::vector<JointRow> spring_rows;  // spring force elements
 };

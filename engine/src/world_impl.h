@@ -264,6 +264,7 @@ class WorldImpl {
     // Per body: a joint holds it to a moving kinematic body or drives it against a body of
     // infinite mass (plan_joint_needs).
     std::vector<uint8_t> held;
+    std::vector<int> solved_joints;             // scratch: every group's joints, in id order
     std::vector<int> group_of;                  // per position in the awake set: its group
     std::vector<int> relax_need, island_relax;  // per body, then per island root
     std::vector<uint8_t> island_passes;  // per island root: 1 keeps the world's velocity passes

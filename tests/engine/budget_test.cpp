@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "fulcrum/scene.h"
@@ -445,6 +446,41 @@ TEST(Budget, SettingsOutOfRangeAreRefused) {
   EXPECT_FALSE(st.ok());
   EXPECT_NE(st.message().find("settings.one_pass_give_tolerance"), std::string::npos)
       << st.message();
+}
+
+// A joint breaks whichever budget group solves it. A 1 kg box (10 N) hangs by a pin with a
+// 5 N break_force beside the very heavy chain: the box is in the world's group, solved before
+// the chain's 16 substeps, and its pin still breaks on the first tick and is reported.
+TEST(Budget, JointsBreakInEveryBudgetGroup) {
+  SceneDef s;
+  add_very_heavy_chain(&s);
+  World w = build(s);
+  BodyDef anchor_def;
+  anchor_def.position = Vec2(-50.0, 50.0);
+  BodyId anchor = *w.create_body(anchor_def);
+  BodyDef box_def;
+  box_def.type = BodyType::kDynamic;
+  box_def.position = Vec2(-50.0, 49.0);
+  BodyId box = *w.create_body(box_def);
+  ShapeDef shape;
+  shape.geometry = make_box(0.5, 0.5);
+  shape.density = 1.0;
+  ASSERT_TRUE(w.create_shape(box, shape).ok());
+  RevoluteJointDef pin;
+  pin.body_a = anchor;
+  pin.body_b = box;
+  pin.local_anchor_a = Vec2(0.0, -0.5);
+  pin.local_anchor_b = Vec2(0.0, 0.5);
+  JointId id = *w.create_revolute_joint(pin);
+  ASSERT_TRUE(w.set_joint_break_limits(id, 5.0, std::numeric_limits<double>::infinity()).ok());
+  w.step();
+  EXPECT_EQ(w.metrics().budget_islands, 1);
+  EXPECT_EQ(w.metrics().max_substeps, 16);
+  ASSERT_EQ(w.events().joints_broken.size(), 1u);
+  EXPECT_EQ(w.events().joints_broken[0], id);
+  EXPECT_FALSE(w.is_valid(id));
+  // The chain's own joints hold.
+  for (JointId j : w.joints()) EXPECT_TRUE(w.is_valid(j));
 }
 
 }  // namespace
