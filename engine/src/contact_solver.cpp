@@ -238,7 +238,8 @@ RowRule row_rule(const WorldImpl& w, double h) {
   return r;
 }
 
-// The solver body slots of a contact's bodies (0, the shared static body, for a body not awake).
+// The solver body slots of a contact's bodies (0, the shared static body, for a body the group
+// does not solve: static or asleep).
 RowBodies row_bodies(const SolverScratch& s, const Contact& c) {
   return RowBodies{solver_slot(s, c.body_a), solver_slot(s, c.body_b)};
 }
