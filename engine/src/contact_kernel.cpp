@@ -23,6 +23,11 @@ void separation_scalar(ContactBlock* blocks, const ContactBlockRest* rests, int 
                        const SolverBody* bodies) {
   separation_blocks<double>(blocks, rests, first, end, bodies);
 }
+void approach_scalar(const ContactBlock* blocks, ContactBlockRest* rests, const int* which,
+                     int first, int end, const SolverBody* bodies, const VelocityBefore* before,
+                     double inv_h) {
+  approach_blocks<double>(blocks, rests, which, first, end, bodies, before, inv_h);
+}
 double solve_x2(ContactBlock* blocks, int first, int end, SolverBody* bodies,
                 const LaneRule& rule) {
   return solve_blocks<F64x2>(blocks, first, end, bodies, rule);
@@ -33,6 +38,10 @@ void warm_x2(ContactBlock* blocks, int first, int end, SolverBody* bodies) {
 void separation_x2(ContactBlock* blocks, const ContactBlockRest* rests, int first, int end,
                    const SolverBody* bodies) {
   separation_blocks<F64x2>(blocks, rests, first, end, bodies);
+}
+void approach_x2(const ContactBlock* blocks, ContactBlockRest* rests, const int* which, int first,
+                 int end, const SolverBody* bodies, const VelocityBefore* before, double inv_h) {
+  approach_blocks<F64x2>(blocks, rests, which, first, end, bodies, before, inv_h);
 }
 
 void solve_points_scalar(PointBlock* blocks, int first, int end, SolverBody* bodies,
@@ -158,6 +167,7 @@ void clear_point(LanePoint* q, LanePointRest* r, int l) {
   q->separation[l] = r->base_separation[l] = 0.0;
   q->normal_mass[l] = q->tangent_mass[l] = 0.0;
   q->normal_impulse[l] = q->tangent_impulse[l] = r->max_normal_impulse[l] = 0.0;
+  r->approach_speed[l] = 0.0;
 }
 
 void clear_lane(ContactBlock* b, ContactBlockRest* r, int l) {
@@ -170,7 +180,7 @@ void clear_lane(ContactBlock* b, ContactBlockRest* r, int l) {
 }
 
 void write_lane(const SolverBody* bodies, const SolverBodyExtra* extras, const ContactRow& row,
-                ContactBlock* b, ContactBlockRest* rest, int l) {
+                const double* approach_speed, ContactBlock* b, ContactBlockRest* rest, int l) {
   b->ia[l] = row.ia;
   b->ib[l] = row.ib;
   b->write_a[l] = bodies[row.ia].inv_mass > 0.0;
@@ -198,6 +208,7 @@ void write_lane(const SolverBody* bodies, const SolverBodyExtra* extras, const C
     q->normal_impulse[l] = p.normal_impulse;
     q->tangent_impulse[l] = p.tangent_impulse;
     r->max_normal_impulse[l] = p.max_normal_impulse;
+    r->approach_speed[l] = approach_speed != nullptr ? approach_speed[i] : 0.0;
   }
 }
 
@@ -269,11 +280,11 @@ void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<Solve
 }
 
 void pack_row(const SolverBody* bodies, const SolverBodyExtra* extras, const ContactRow& row,
-              size_t k, ColouredContacts* cc) {
+              const double* approach_speed, size_t k, ColouredContacts* cc) {
   const int lane_index = cc->lane_of_row[k];
   ContactBlock* block = &cc->blocks[lane_index / kBlockLanes];
   ContactBlockRest* rest = &cc->rests[lane_index / kBlockLanes];
-  write_lane(bodies, extras, row, block, rest, lane_index % kBlockLanes);
+  write_lane(bodies, extras, row, approach_speed, block, rest, lane_index % kBlockLanes);
   separation_lanes<double>(*block, *rest, lane_index % kBlockLanes, bodies);
 }
 
@@ -285,18 +296,20 @@ struct PathFns {
   lanes::SolveFn solve;
   lanes::WarmFn warm;
   lanes::SeparationFn separation;
+  lanes::ApproachFn approach;
 };
 
 PathFns path_fns() {
   switch (active_simd_path()) {
     case SimdPath::kAvx512:
-      return {lanes::solve_x4e, lanes::warm_x4e, lanes::separation_x4e};
+      return {lanes::solve_x4e, lanes::warm_x4e, lanes::separation_x4e, lanes::approach_x4e};
     case SimdPath::kLanes4:
-      return {lanes::solve_x4, lanes::warm_x4, lanes::separation_x4};
+      return {lanes::solve_x4, lanes::warm_x4, lanes::separation_x4, lanes::approach_x4};
     case SimdPath::kLanes2:
-      return {lanes::solve_x2, lanes::warm_x2, lanes::separation_x2};
+      return {lanes::solve_x2, lanes::warm_x2, lanes::separation_x2, lanes::approach_x2};
     default:
-      return {lanes::solve_scalar, lanes::warm_scalar, lanes::separation_scalar};
+      return {lanes::solve_scalar, lanes::warm_scalar, lanes::separation_scalar,
+              lanes::approach_scalar};
   }
 }
 
@@ -353,6 +366,24 @@ void update_separations(ColouredContacts& cc, const SolverBody* bodies, WorkerPo
   auto chunk = [&](int i) {
     const int b = i * kBlocksPerChunk;
     fns.separation(blocks, cc.rests.data(), b, std::min(b + kBlocksPerChunk, end), bodies);
+  };
+  pool->run(chunks, chunk);
+}
+
+void track_approach_coloured(ColouredContacts& cc, const SolverBody* bodies,
+                             const VelocityBefore* before, double inv_h, WorkerPool* pool) {
+  const PathFns fns = path_fns();
+  const int* which = cc.bounce_blocks.data();
+  const int end = static_cast<int>(cc.bounce_blocks.size());
+  const int chunks = chunk_count(0, end);
+  if (pool == nullptr || chunks < 2) {
+    fns.approach(cc.blocks.data(), cc.rests.data(), which, 0, end, bodies, before, inv_h);
+    return;
+  }
+  auto chunk = [&](int i) {
+    const int b = i * kBlocksPerChunk;
+    fns.approach(cc.blocks.data(), cc.rests.data(), which, b, std::min(b + kBlocksPerChunk, end),
+                 bodies, before, inv_h);
   };
   pool->run(chunks, chunk);
 }

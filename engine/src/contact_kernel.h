@@ -10,6 +10,7 @@
 // linkage, so that the two files' copies, built for different instruction sets, never merge.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <cstring>
 
@@ -38,6 +39,7 @@ struct Lane<double> {
   static FULCRUM_LANE_INLINE double load(const double* p) { return *p; }
   static FULCRUM_LANE_INLINE void store(double* p, double v) { *p = v; }
   static FULCRUM_LANE_INLINE double get(double v, int) { return v; }
+  static FULCRUM_LANE_INLINE double sqrt(double v) { return std::sqrt(v); }
   static FULCRUM_LANE_INLINE void load_rows(const double* const* rows, double out[4]) {
     std::memcpy(out, rows[0], 4 * sizeof(double));
   }
@@ -56,6 +58,7 @@ struct Lane<F64x2> {
     return v;
   }
   static FULCRUM_LANE_INLINE void store(double* p, F64x2 v) { std::memcpy(p, &v, sizeof v); }
+  static FULCRUM_LANE_INLINE F64x2 sqrt(F64x2 v) { return F64x2{std::sqrt(v[0]), std::sqrt(v[1])}; }
   static FULCRUM_LANE_INLINE double get(F64x2 v, int l) { return v[l]; }
   static FULCRUM_LANE_INLINE void load_rows(const double* const* rows, F64x2 out[4]) {
     F64x2 a01 = load(rows[0]), a23 = load(rows[0] + 2);
@@ -102,6 +105,9 @@ struct Lane<F64x4> {
   static FULCRUM_LANE_INLINE F64x4 splat(double x) { return F64x4{x, x, x, x}; }
   static FULCRUM_LANE_INLINE F64x4 load(const double* p) { return load4(p); }
   static FULCRUM_LANE_INLINE void store(double* p, F64x4 v) { std::memcpy(p, &v, sizeof v); }
+  static FULCRUM_LANE_INLINE F64x4 sqrt(F64x4 v) {
+    return F64x4{std::sqrt(v[0]), std::sqrt(v[1]), std::sqrt(v[2]), std::sqrt(v[3])};
+  }
   static FULCRUM_LANE_INLINE double get(F64x4 v, int l) { return v[l]; }
   static FULCRUM_LANE_INLINE void load_rows(const double* const* rows, F64x4 out[4]) {
     transpose4(load4(rows[0]), load4(rows[1]), load4(rows[2]), load4(rows[3]), out);
@@ -188,6 +194,7 @@ struct Lane<LanePair<H>> {
   static FULCRUM_LANE_INLINE double get(V v, int l) {
     return l < Half::kCount ? Half::get(v.lo, l) : Half::get(v.hi, l - Half::kCount);
   }
+  static FULCRUM_LANE_INLINE V sqrt(V v) { return {Half::sqrt(v.lo), Half::sqrt(v.hi)}; }
   static FULCRUM_LANE_INLINE void load_rows(const double* const* rows, V out[4]) {
     H lo[4], hi[4];
     Half::load_rows(rows, lo);
@@ -210,6 +217,10 @@ FULCRUM_LANE_INLINE V lane_select(M m, V a, V b) {
 template <class V>
 FULCRUM_LANE_INLINE V lane_max(V a, V b) {
   return lane_select(a < b, b, a);
+}
+template <class V>
+FULCRUM_LANE_INLINE V lane_min(V a, V b) {
+  return lane_select(b < a, b, a);
 }
 template <class V>
 FULCRUM_LANE_INLINE V lane_clamp(V x, V lo, V hi) {
@@ -345,6 +356,45 @@ FULCRUM_LANE_INLINE void separation_lanes(ContactBlock& k, const ContactBlockRes
   }
 }
 
+// Restitution's speed of approach (contact_solver.cpp, track_approach, states the steps): each
+// point's normal speed before the substep's forces (v0) and after them (v1), and the gap now,
+// give its speed at impact; the least so far is kept in the rest.
+template <class V>
+FULCRUM_LANE_INLINE void approach_lanes(const ContactBlock& k, ContactBlockRest& rest, int l0,
+                                        const SolverBody* bodies, const VelocityBefore* before,
+                                        V inv_h) {
+  using L = Lane<V>;
+  const LaneBodies<V> v(k, l0, bodies);
+  const double* ra[L::kCount];
+  const double* rb[L::kCount];
+  for (int l = 0; l < L::kCount; ++l) {
+    ra[l] = &before[k.ia[l0 + l]].vx;
+    rb[l] = &before[k.ib[l0 + l]].vx;
+  }
+  V a0[4], b0[4];
+  L::load_rows(ra, a0);
+  L::load_rows(rb, b0);
+  const V zero = L::splat(0.0), two = L::splat(2.0);
+  const V nx = L::load(k.nx + l0), ny = L::load(k.ny + l0);
+  for (int i = 0; i < 2; ++i) {
+    const LanePoint& p = k.points[i];
+    const V rax = L::load(p.rax + l0), ray = L::load(p.ray + l0);
+    const V rbx = L::load(p.rbx + l0), rby = L::load(p.rby + l0);
+    V dvx = (b0[0] - b0[2] * rby) - (a0[0] - a0[2] * ray);
+    V dvy = (b0[1] + b0[2] * rbx) - (a0[1] + a0[2] * rax);
+    const V v0 = dvx * nx + dvy * ny;
+    dvx = (v.vbx - v.wb * rby) - (v.vax - v.wa * ray);
+    dvy = (v.vby + v.wb * rbx) - (v.vay + v.wa * rax);
+    const V v1 = dvx * nx + dvy * ny;
+    const V gap = lane_max(L::load(p.separation + l0), zero);
+    const V accel = (v1 - v0) * inv_h;
+    const V impact = -L::sqrt(lane_max(v0 * v0 - two * accel * gap, zero));
+    const V speed = lane_select((v0 < zero) | (accel < zero), lane_min(v1, impact), v1);
+    double* approach = rest.points[i].approach_speed + l0;
+    L::store(approach, lane_min(L::load(approach), speed));
+  }
+}
+
 // One pass over a group of lanes: both normal rows, then both friction rows (contact_solver.cpp
 // states the rows). Returns the largest corrective impulse of the lanes.
 template <class V, bool kRefresh>
@@ -475,6 +525,19 @@ void separation_blocks(ContactBlock* blocks, const ContactBlockRest* rests, int 
   for (int k = first; k < end; ++k) {
     for (int l0 = 0; l0 < kBlockLanes; l0 += Lane<V>::kCount) {
       separation_lanes<V>(blocks[k], rests[k], l0, bodies);
+    }
+  }
+}
+
+template <class V>
+void approach_blocks(const ContactBlock* blocks, ContactBlockRest* rests, const int* which,
+                     int first, int end, const SolverBody* bodies, const VelocityBefore* before,
+                     double inv_h) {
+  const V rate = Lane<V>::splat(inv_h);
+  for (int j = first; j < end; ++j) {
+    const int k = which[j];
+    for (int l0 = 0; l0 < kBlockLanes; l0 += Lane<V>::kCount) {
+      approach_lanes<V>(blocks[k], rests[k], l0, bodies, before, rate);
     }
   }
 }

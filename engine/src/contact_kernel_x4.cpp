@@ -26,6 +26,12 @@ void FULCRUM_X4_NAME(separation)(ContactBlock* blocks, const ContactBlockRest* r
   separation_blocks<F64x4>(blocks, rests, first, end, bodies);
 }
 
+void FULCRUM_X4_NAME(approach)(const ContactBlock* blocks, ContactBlockRest* rests,
+                               const int* which, int first, int end, const SolverBody* bodies,
+                               const VelocityBefore* before, double inv_h) {
+  approach_blocks<F64x4>(blocks, rests, which, first, end, bodies, before, inv_h);
+}
+
 void FULCRUM_X4_NAME(solve_points)(PointBlock* blocks, int first, int end, SolverBody* bodies,
                                    const PointRule& rule) {
   solve_point_blocks<F64x4>(blocks, first, end, bodies, rule);

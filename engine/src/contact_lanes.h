@@ -42,6 +42,9 @@ struct alignas(64) LanePoint {
 struct alignas(64) LanePointRest {
   double base_separation[kBlockLanes];     // read where the separations are refreshed
   double max_normal_impulse[kBlockLanes];  // tracked only when restitution needs it
+  // Restitution: the point's normal speed at impact, the least over the substeps
+  // (track_approach_coloured); kept only for contacts with restitution.
+  double approach_speed[kBlockLanes];
 };
 
 // The inverse masses are not here: the lanes read them with the bodies' velocities. Nor is the
@@ -84,6 +87,7 @@ struct ColouredContacts {
   int colours = 0;
   int overflow = 0;
   std::vector<int> lane_of_row;       // row -> block * kBlockLanes + lane
+  std::vector<int> bounce_blocks;     // blocks holding a contact with restitution, ascending
   std::vector<uint32_t> body_use;     // scratch: colours used per solver body
   std::vector<double> chunk_largest;  // scratch: each chunk's largest impulse
 };
@@ -124,9 +128,10 @@ void pad_colours(const ColourLayout& layout, std::vector<Block>* blocks, Clear c
 void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<SolverBody>& bodies,
                      ColouredContacts* out);
 // Writes row k (prepared) into its lane, with its separations computed from the bodies' motion
-// as update_separations would. Rows of one block may be packed on different threads.
+// as update_separations would, and its points' approach speeds (restitution only, else null).
+// Rows of one block may be packed on different threads.
 void pack_row(const SolverBody* bodies, const SolverBodyExtra* extras, const ContactRow& row,
-              size_t k, ColouredContacts* cc);
+              const double* approach_speed, size_t k, ColouredContacts* cc);
 
 // Lanes [first, first + count) of blocks, for each path. Each returns the largest corrective
 // impulse (0 unless the rule asks for it). Declared per path so that the 4-lane path can live in a
@@ -137,18 +142,30 @@ using SolveFn = double (*)(ContactBlock* blocks, int first_block, int end_block,
 using WarmFn = void (*)(ContactBlock* blocks, int first_block, int end_block, SolverBody* bodies);
 using SeparationFn = void (*)(ContactBlock* blocks, const ContactBlockRest* rests, int first_block,
                               int end_block, const SolverBody* bodies);
+// The blocks listed in which[first, end).
+using ApproachFn = void (*)(const ContactBlock* blocks, ContactBlockRest* rests, const int* which,
+                            int first, int end, const SolverBody* bodies,
+                            const VelocityBefore* before, double inv_h);
 double solve_scalar(ContactBlock*, int, int, SolverBody*, const LaneRule&);
 void warm_scalar(ContactBlock*, int, int, SolverBody*);
 void separation_scalar(ContactBlock*, const ContactBlockRest*, int, int, const SolverBody*);
+void approach_scalar(const ContactBlock*, ContactBlockRest*, const int*, int, int,
+                     const SolverBody*, const VelocityBefore*, double);
 double solve_x2(ContactBlock*, int, int, SolverBody*, const LaneRule&);
 void warm_x2(ContactBlock*, int, int, SolverBody*);
 void separation_x2(ContactBlock*, const ContactBlockRest*, int, int, const SolverBody*);
+void approach_x2(const ContactBlock*, ContactBlockRest*, const int*, int, int, const SolverBody*,
+                 const VelocityBefore*, double);
 double solve_x4(ContactBlock*, int, int, SolverBody*, const LaneRule&);
 void warm_x4(ContactBlock*, int, int, SolverBody*);
 void separation_x4(ContactBlock*, const ContactBlockRest*, int, int, const SolverBody*);
+void approach_x4(const ContactBlock*, ContactBlockRest*, const int*, int, int, const SolverBody*,
+                 const VelocityBefore*, double);
 double solve_x4e(ContactBlock*, int, int, SolverBody*, const LaneRule&);  // AVX-512F and VL
 void warm_x4e(ContactBlock*, int, int, SolverBody*);
 void separation_x4e(ContactBlock*, const ContactBlockRest*, int, int, const SolverBody*);
+void approach_x4e(const ContactBlock*, ContactBlockRest*, const int*, int, int, const SolverBody*,
+                  const VelocityBefore*, double);
 }  // namespace lanes
 
 // Blocks per chunk when a colour is shared out among threads: a constant, so that which
@@ -158,6 +175,13 @@ inline constexpr int kBlocksPerChunk = 4;
 // The current separation of every lane's points, from the bodies' motion since the tick began;
 // needed after a position update that no relax pass follows (LaneRule::refresh_separation).
 void update_separations(ColouredContacts& cc, const SolverBody* bodies, WorkerPool* pool);
+
+// Restitution's speeds of approach (contact_solver.cpp, track_approach), for the lanes of the
+// bounce blocks: each point's normal speed now and before the substep's forces (`before`, per
+// solver slot), its current separation, and so its speed at impact; the least is kept. Reads
+// the bodies, writes only the rests: any order gives the same bits.
+void track_approach_coloured(ColouredContacts& cc, const SolverBody* bodies,
+                             const VelocityBefore* before, double inv_h, WorkerPool* pool);
 
 // One pass (solve or warm start) over every colour, then the overflow one lane at a time.
 // With a pool, each colour's chunks are shared among its threads.

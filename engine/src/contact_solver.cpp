@@ -352,38 +352,41 @@ void prepare(WorldImpl& w, SolverScratch& s, double h, WorkerPool* pool) {
 }
 
 // Soft contacts: each row is prepared where it is used, straight into its lane
-// (contact_lanes.h); only rows with restitution are also kept in s.rows and s.extras, for the
-// restitution steps. Coloured in id order first, from the rows' bodies.
+// (contact_lanes.h), restitution's approach speeds included. Coloured in id order first, from
+// the rows' bodies.
 void prepare_coloured(WorldImpl& w, SolverScratch& s, double h, ColouredContacts* cc,
                       WorkerPool* pool) {
   const size_t n_rows = s.contacts.size();
-  s.rows.resize(n_rows);
-  s.extras.resize(n_rows);
   s.row_bodies.resize(n_rows);
   s.row_points.resize(n_rows);
-  s.row_bounces.resize(n_rows);
+  s.row_restitution.resize(n_rows);
   for_chunks(pool, n_rows, 256, [&](size_t lo, size_t hi) {
     for (size_t k = lo; k < hi; ++k) {
       const Contact& c = w.contacts[s.contacts[k]];
       s.row_bodies[k] = row_bodies(s, c);
-      s.row_bounces[k] = c.restitution != 0.0;
+      s.row_restitution[k] = c.restitution;
     }
   });
   s.restitution_rows.clear();
   for (size_t k = 0; k < n_rows; ++k) {
-    if (s.row_bounces[k]) s.restitution_rows.push_back(static_cast<int>(k));
+    if (s.row_restitution[k] != 0.0) s.restitution_rows.push_back(static_cast<int>(k));
   }
   colour_contacts(s.row_bodies, s.bodies, cc);
+  // The blocks restitution's approach speeds are tracked in, ascending, each once.
+  cc->bounce_blocks.clear();
+  for (int k : s.restitution_rows) cc->bounce_blocks.push_back(cc->lane_of_row[k] / kBlockLanes);
+  std::sort(cc->bounce_blocks.begin(), cc->bounce_blocks.end());
+  cc->bounce_blocks.erase(std::unique(cc->bounce_blocks.begin(), cc->bounce_blocks.end()),
+                          cc->bounce_blocks.end());
   const RowRule r = row_rule(w, h);
   for_chunks(pool, n_rows, 256, [&](size_t lo, size_t hi) {
-    ContactRow scratch_row;
-    ContactRowExtra scratch_extra;
+    ContactRow row;
+    ContactRowExtra extra;
     for (size_t k = lo; k < hi; ++k) {
-      const bool kept = s.row_bounces[k];
-      ContactRow& row = kept ? s.rows[k] : scratch_row;
-      prepare_row(w, s, r, k, s.row_bodies[k], row, kept ? s.extras[k] : scratch_extra);
+      prepare_row(w, s, r, k, s.row_bodies[k], row, extra);
       s.row_points[k] = static_cast<uint8_t>(row.count);
-      pack_row(s.bodies.data(), s.body_extras.data(), row, k, cc);
+      const double* approach = s.row_restitution[k] != 0.0 ? extra.approach_speed : nullptr;
+      pack_row(s.bodies.data(), s.body_extras.data(), row, approach, k, cc);
     }
   });
 }
@@ -397,12 +400,11 @@ void prepare_coloured(WorldImpl& w, SolverScratch& s, double h, ColouredContacts
 void record_velocities(SolverScratch& s, size_t first, size_t end) {
   for (size_t k = first; k < end; ++k) {
     const SolverBody& b = s.bodies[k];
-    s.velocity_before[k] = VelocityBefore{b.vx, b.vy, b.w};
+    s.velocity_before[k] = VelocityBefore{b.vx, b.vy, b.w, 0.0};
   }
 }
 
-// The gap from the row and its bodies: with lanes, the same number the lane holds (computed the
-// same way, and the bodies have not moved since), without reading the lane's block.
+// The rigid step's rows (the lanes have track_approach_coloured, the same steps).
 void track_approach(SolverScratch& s, double inv_h, size_t first, size_t end) {
   for (size_t r = first; r < end; ++r) {
     const int k = s.restitution_rows[r];
@@ -724,21 +726,62 @@ PointImpulses impulses_of(SolverScratch& s, ColouredContacts* lanes, size_t k, i
   return {&q.normal_impulse[l], &q.tangent_impulse[l], &r.max_normal_impulse[l]};
 }
 
+// A restitution row as apply_restitution reads it: the rigid step's row, or a soft contact's
+// gathered back from its lane (the same numbers).
+struct BounceRow {
+  ContactRow row;
+  double approach_speed[2] = {0.0, 0.0};
+  double restitution = 0.0;
+};
+
+BounceRow bounce_row(const SolverScratch& s, const ColouredContacts* lanes, int k) {
+  BounceRow out;
+  if (lanes == nullptr) {
+    out.row = s.rows[k];
+    out.approach_speed[0] = s.extras[k].approach_speed[0];
+    out.approach_speed[1] = s.extras[k].approach_speed[1];
+    out.restitution = s.extras[k].restitution;
+    return out;
+  }
+  const int lane = lanes->lane_of_row[k];
+  const ContactBlock& b = lanes->blocks[lane / kBlockLanes];
+  const ContactBlockRest& rest = lanes->rests[lane / kBlockLanes];
+  const int l = lane % kBlockLanes;
+  ContactRow& row = out.row;
+  row.ia = b.ia[l];
+  row.ib = b.ib[l];
+  row.count = s.row_points[k];
+  row.nx = b.nx[l];
+  row.ny = b.ny[l];
+  for (int i = 0; i < row.count; ++i) {
+    const LanePoint& q = b.points[i];
+    ContactPointRow& p = row.points[i];
+    p.rax = q.rax[l];
+    p.ray = q.ray[l];
+    p.rbx = q.rbx[l];
+    p.rby = q.rby[l];
+    p.normal_mass = q.normal_mass[l];
+    out.approach_speed[i] = rest.points[i].approach_speed[l];
+  }
+  out.restitution = s.row_restitution[k];
+  return out;
+}
+
 // Bounce: points that approached faster than the threshold and carried load leave with
 // -e times their approach speed.
 void apply_restitution(SolverScratch& s, ColouredContacts* lanes, double threshold) {
   for (int k : s.restitution_rows) {
-    const ContactRow& row = s.rows[k];
-    const ContactRowExtra& extra = s.extras[k];
+    const BounceRow bounce = bounce_row(s, lanes, k);
+    const ContactRow& row = bounce.row;
     ScalarBody a = scalar_body(s, row.ia);
     ScalarBody b = scalar_body(s, row.ib);
     for (int i = 0; i < row.count; ++i) {
       const ContactPointRow& p = row.points[i];
       const PointImpulses acc_of = impulses_of(s, lanes, k, i);
-      double approach = extra.approach_speed[i];
+      double approach = bounce.approach_speed[i];
       if (approach > -threshold || *acc_of.max_normal == 0.0) continue;
       double vn = normal_speed(a, b, p, row.nx, row.ny);
-      double lambda = -p.normal_mass * (vn + extra.restitution * approach);
+      double lambda = -p.normal_mass * (vn + bounce.restitution * approach);
       double acc = std::max(*acc_of.normal + lambda, 0.0);
       lambda = acc - *acc_of.normal;
       *acc_of.normal = acc;
@@ -857,9 +900,9 @@ void WorldImpl::solve_group(const std::vector<int>& awake,
     return coloured ? solve_coloured(coloured_contacts, s.bodies.data(), lr, workers)
                     : solve_contacts(s, r);
   };
+  if (!s.restitution_rows.empty()) s.velocity_before.resize(s.bodies.size());
   for (int sub = 0; sub < set.substeps; ++sub) {
     if (!s.restitution_rows.empty()) {
-      s.velocity_before.resize(s.bodies.size());
       for_chunks(workers, s.bodies.size(), 1024,
                  [&](size_t lo, size_t hi) { record_velocities(s, lo, hi); });
     }
@@ -867,8 +910,13 @@ void WorldImpl::solve_group(const std::vector<int>& awake,
     apply_spring_forces(h);
     for_chunks(workers, awake.size(), 256,
                [&](size_t lo, size_t hi) { integrate_velocities(*this, awake, s, h, lo, hi); });
-    for_chunks(workers, s.restitution_rows.size(), 256,
-               [&](size_t lo, size_t hi) { track_approach(s, 1.0 / h, lo, hi); });
+    if (coloured && !s.restitution_rows.empty()) {
+      track_approach_coloured(coloured_contacts, s.bodies.data(), s.velocity_before.data(), 1.0 / h,
+                              workers);
+    } else {
+      for_chunks(workers, s.restitution_rows.size(), 256,
+                 [&](size_t lo, size_t hi) { track_approach(s, 1.0 / h, lo, hi); });
+    }
     // Later substeps always start from the impulses of the one before.
     if (set.warm_starting || sub > 0) {
       warm_start_joints(workers);

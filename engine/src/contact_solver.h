@@ -36,9 +36,11 @@ struct SlotCentre {
   double x = 0.0, y = 0.0;
 };
 
-// A solver body's velocity before a substep's forces, kept for restitution's approach speeds.
-struct VelocityBefore {
+// A solver body's velocity before a substep's forces, kept for restitution's approach speeds;
+// four doubles, so that the lanes load it as they load a velocity row.
+struct alignas(32) VelocityBefore {
   double vx = 0.0, vy = 0.0, w = 0.0;
+  double unused = 0.0;
 };
 
 // Rigid contacts with split impulses: the velocity that moves a body out of overlap this
@@ -145,15 +147,14 @@ struct SolverScratch {
   std::vector<int> body_slot;       // body index -> solver slot (stale for bodies not solved)
   std::vector<int> slot_body;       // solver slot -> body index (-1 for slot 0)
   std::vector<SlotCentre> centres;  // beside bodies, slot for slot
-  // Soft contacts keep rows and extras only for contacts with restitution; their other rows
-  // live in the coloured lanes (contact_lanes.h).
+  // The rigid step's rows (soft contacts' rows live in the coloured lanes, contact_lanes.h).
   std::vector<ContactRow> rows;
   std::vector<ContactRowExtra> extras;
   std::vector<RowBodies> row_bodies;  // soft contacts: each row's bodies, for the colouring
   // Soft contacts: each row's manifold points, noted as it is prepared, so that storing the
   // impulses need not read the contact before writing it.
   std::vector<uint8_t> row_points;
-  std::vector<uint8_t> row_bounces;  // soft contacts: whether each row's contact has restitution
+  std::vector<double> row_restitution;  // soft contacts: each row's restitution (0: none)
   std::vector<int> contacts;
   std::vector<int> restitution_rows;  // rows with restitution > 0
   // With restitution rows: each slot's velocity before this substep's forces.
