@@ -545,6 +545,20 @@ void approach_blocks(const ContactBlock* blocks, ContactBlockRest* rests, const 
 template <class V>
 void warm_blocks(ContactBlock* blocks, int first, int end, SolverBody* bodies) {
   for (int k = first; k < end; ++k) {
+    if (k + 3 < end) {
+      const char* far = reinterpret_cast<const char*>(&blocks[k + 3]);
+      for (size_t line = 0; line < offsetof(ContactBlock, points); line += 64) {
+        __builtin_prefetch(far + line);
+      }
+      for (const LanePoint& p : blocks[k + 3].points) {
+        __builtin_prefetch(p.rax);
+        __builtin_prefetch(p.ray);
+        __builtin_prefetch(p.rbx);
+        __builtin_prefetch(p.rby);
+        __builtin_prefetch(p.normal_impulse);
+        __builtin_prefetch(p.tangent_impulse);
+      }
+    }
     for (int l0 = 0; l0 < kBlockLanes; l0 += Lane<V>::kCount) warm_lanes<V>(blocks[k], l0, bodies);
   }
 }
