@@ -302,10 +302,14 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   std::vector<int>& slot = solver_scratch.body_slot;  // body -> 1 + position in `awake`
   if (slot.size() < bodies.size()) slot.resize(bodies.size(), 0);
   for (int k = 0; k < n; ++k) slot[awake[k]] = k + 1;
+  // Whether each awake body is dynamic, read once from the large body records.
+  std::vector<uint8_t>& dynamic = budget.dynamic;
+  dynamic.resize(n);
+  for (int k = 0; k < n; ++k) dynamic[k] = bodies[awake[k]].is_dynamic();
   // A body's position in `awake` if it is there and dynamic; -1 otherwise.
   auto awake_dynamic = [&](int body) {
     const int k = slot[body] - 1;
-    return k >= 0 && k < n && awake[k] == body && bodies[body].is_dynamic() ? k : -1;
+    return k >= 0 && k < n && awake[k] == body && dynamic[k] ? k : -1;
   };
 
   // Joint components: mass and weakest joint (first per body, then per component).
@@ -332,9 +336,9 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   // Over the touching contacts collide listed: every touching solid contact of an awake body
   // is there (maxima and an or, the same in any order).
   auto walk_pressed = [&] {
-    for (const int ci : touching_contacts) {
-      const Contact& c = contacts[ci];
-      for (const int bi : {c.body_a, c.body_b}) {
+    for (size_t t = 0; t < touching_contacts.size(); ++t) {
+      const int ci = touching_contacts[t];
+      for (const int bi : {touching_bodies[t].a, touching_bodies[t].b}) {
         const int k = awake_dynamic(bi);
         if (k < 0) continue;
         pressed[k] = std::max(pressed[k], contact_pressed[ci]);
@@ -396,15 +400,14 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   }
   // Touching contacts, from collide's list (in id order: far cheaper than walking every body's
   // list, and the islands are the same whatever the order).
-  for (const int ci : touching_contacts) {
-    const Contact& c = contacts[ci];
-    const int ka = awake_dynamic(c.body_a);
-    const int kb = awake_dynamic(c.body_b);
+  for (const ContactBodies& c : touching_bodies) {
+    const int ka = awake_dynamic(c.a);
+    const int kb = awake_dynamic(c.b);
     if (ka >= 0 && kb >= 0) {
       unite(parent, ka, kb);
-    } else if (ka >= 0 && bodies[c.body_b].type == BodyType::kKinematic) {
+    } else if (ka >= 0 && bodies[c.b].type == BodyType::kKinematic) {
       island_need[ka] = -1;
-    } else if (kb >= 0 && bodies[c.body_a].type == BodyType::kKinematic) {
+    } else if (kb >= 0 && bodies[c.a].type == BodyType::kKinematic) {
       island_need[kb] = -1;
     }
   }
@@ -441,11 +444,10 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   const int iterations = settings.velocity_iterations;
   for (int k = 0; k < n; ++k) {
     const int r = find_root(parent, k);
-    const bool dynamic = bodies[awake[k]].is_dynamic();
-    const bool base = !dynamic || island_need[r] <= 0;
+    const bool base = !dynamic[k] || island_need[r] <= 0;
     const int sub = base ? settings.substeps : std::max(island_need[r], settings.substeps);
     const int relax = base ? settings.relax_iterations : island_relax[r];
-    const bool one = dynamic && island_need[r] >= 0 && !island_passes[r];
+    const bool one = dynamic[k] && island_need[r] >= 0 && !island_passes[r];
     const int passes = one ? 1 : budget_iterations(iterations, settings.substeps, sub);
     auto it = std::find_if(budget.groups.begin(), budget.groups.end(), [&](const BudgetGroup& grp) {
       return grp.substeps == sub && grp.relax == relax && grp.iterations == passes;
@@ -478,12 +480,11 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
     budget.groups[i].contacts.clear();
     for (const int bi : budget.groups[i].bodies) group_of[slot[bi] - 1] = static_cast<int>(i);
   }
-  for (const int ci : touching_contacts) {
-    const Contact& c = contacts[ci];
-    const bool awake_a = bodies[c.body_a].awake, awake_b = bodies[c.body_b].awake;
-    const int owner =
-        awake_a && awake_b ? std::min(c.body_a, c.body_b) : (awake_a ? c.body_a : c.body_b);
-    budget.groups[group_of[slot[owner] - 1]].contacts.push_back(ci);
+  for (size_t t = 0; t < touching_contacts.size(); ++t) {
+    const ContactBodies& c = touching_bodies[t];
+    const bool awake_a = bodies[c.a].awake, awake_b = bodies[c.b].awake;
+    const int owner = awake_a && awake_b ? std::min(c.a, c.b) : (awake_a ? c.a : c.b);
+    budget.groups[group_of[slot[owner] - 1]].contacts.push_back(touching_contacts[t]);
   }
   return true;
 }

@@ -206,6 +206,7 @@ void WorldImpl::collide() {
   // Bodies woken by a touch in one round bring their own contacts into the next round, until
   // no more wake.
   touching_contacts.clear();
+  touching_bodies.clear();
   size_t first_new = 0;
   int rounds = 0;
   while (first_new < awake_bodies.size()) {
@@ -215,7 +216,13 @@ void WorldImpl::collide() {
     ++rounds;
   }
   // Each round lists its own contacts in id order.
-  if (rounds > 1) std::sort(touching_contacts.begin(), touching_contacts.end());
+  if (rounds > 1) {
+    std::sort(touching_contacts.begin(), touching_contacts.end());
+    for (size_t t = 0; t < touching_contacts.size(); ++t) {
+      const Contact& c = contacts[touching_contacts[t]];
+      touching_bodies[t] = ContactBodies{c.body_a, c.body_b};
+    }
+  }
 }
 
 void WorldImpl::collide_round(size_t first, size_t end, const std::optional<ContactPress>& press,
@@ -273,6 +280,9 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
   enum Refreshed : uint8_t { kParted, kOverlap, kSteady, kSteadyTouching };
   std::vector<uint8_t>& overlap = scratch_overlap;
   overlap.assign(list.size(), kParted);
+  // The bodies of each contact the chunks find steady and touching, for touching_bodies.
+  std::vector<ContactBodies>& list_bodies = scratch_list_bodies;
+  list_bodies.resize(list.size());
   auto refresh = [&](size_t k) {
     Contact& c = contacts[list[k]];
     if (!fat_boxes[c.shape_a].overlaps(fat_boxes[c.shape_b])) return;
@@ -360,6 +370,7 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
       if (touching == c.touching &&
           (!touching || c.sensor || (bodies[c.body_a].awake && bodies[c.body_b].awake))) {
         overlap[k] = touching && !c.sensor ? kSteadyTouching : kSteady;
+        list_bodies[k] = ContactBodies{c.body_a, c.body_b};
       }
     }
   };
@@ -376,7 +387,10 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
   // Then, in id order: boxes that parted destroy their contact; touches wake and report.
   for (size_t k = 0; k < list.size(); ++k) {
     const int ci = list[k];
-    if (overlap[k] == kSteadyTouching) touching_contacts.push_back(ci);
+    if (overlap[k] == kSteadyTouching) {
+      touching_contacts.push_back(ci);
+      touching_bodies.push_back(list_bodies[k]);
+    }
     if (overlap[k] >= kSteady) continue;
     if (overlap[k] == kParted) {
       destroy_contact(ci, true);
@@ -389,6 +403,7 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
     // An awake body touching a sleeping one wakes it (and what rests on it).
     if (c.touching && !c.sensor) {
       touching_contacts.push_back(ci);
+      touching_bodies.push_back(ContactBodies{c.body_a, c.body_b});
       if (!bodies[c.body_a].awake) wake_island(c.body_a);
       if (!bodies[c.body_b].awake) wake_island(c.body_b);
     }

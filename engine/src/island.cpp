@@ -3,7 +3,6 @@
 // body has rested for settings.time_to_sleep goes to sleep as a whole; it then costs nothing
 // until an awake body touches it or an edit wakes it.
 #include <algorithm>
-#include <cassert>
 
 #include "union_find.h"
 #include "world_impl.h"
@@ -25,9 +24,12 @@ void WorldImpl::update_sleep(const std::vector<int>& awake) {
   // Rest timers.
   std::vector<double>& island_min = scratch_rest;
   island_min.assign(n, 0.0);
+  std::vector<uint8_t>& dynamic = budget.dynamic;  // whether each awake body is dynamic
+  dynamic.resize(n);
   bool any_rested = false;
   for (int k = 0; k < n; ++k) {
     Body& b = bodies[awake[k]];
+    dynamic[k] = b.is_dynamic();
     bool resting = settings.enable_sleep && b.enable_sleep && length_squared(b.v) <= lin_tol2 &&
                    b.w * b.w <= ang_tol2;
     b.sleep_time = resting ? b.sleep_time + h : 0.0;
@@ -51,21 +53,19 @@ void WorldImpl::update_sleep(const std::vector<int>& awake) {
   if (slot.size() < bodies.size()) slot.resize(bodies.size(), 0);
   auto awake_dynamic = [&](int body) {
     const int k = slot[body] - 1;
-    return k >= 0 && k < n && awake[k] == body && bodies[body].is_dynamic() ? k : -1;
+    return k >= 0 && k < n && awake[k] == body && dynamic[k] ? k : -1;
   };
   auto moving_kinematic = [&](int body) {
     return bodies[body].type == BodyType::kKinematic && bodies[body].sleep_time == 0.0;
   };
-  for (const int ci : touching_contacts) {
-    const Contact& c = contacts[ci];
-    assert(c.alive && c.touching && !c.sensor);
-    const int ka = awake_dynamic(c.body_a);
-    const int kb = awake_dynamic(c.body_b);
+  for (const ContactBodies& c : touching_bodies) {
+    const int ka = awake_dynamic(c.a);
+    const int kb = awake_dynamic(c.b);
     if (ka >= 0 && kb >= 0) {
       unite(parent, ka, kb);
-    } else if (ka >= 0 && moving_kinematic(c.body_b)) {
+    } else if (ka >= 0 && moving_kinematic(c.b)) {
       island_min[ka] = 0.0;
-    } else if (kb >= 0 && moving_kinematic(c.body_a)) {
+    } else if (kb >= 0 && moving_kinematic(c.a)) {
       island_min[kb] = 0.0;
     }
   }

@@ -39,6 +39,11 @@ struct ContactPress {
   double rest_speed2 = 0.0;  // (|g| dt)^2: faster bodies are not at rest on their contacts
 };
 
+// A contact's two bodies (body indices), as Contact has them.
+struct ContactBodies {
+  int a = kNullIndex, b = kNullIndex;
+};
+
 class WorldImpl {
  public:
   explicit WorldImpl(const WorldSettings& s) : settings(s) {}
@@ -228,12 +233,16 @@ class WorldImpl {
   // Scratch reused every step (never part of the state).
   std::vector<int> scratch_contacts;
   std::vector<uint8_t> scratch_overlap;                  // collide: each contact's Refreshed state
+  std::vector<ContactBodies> scratch_list_bodies;        // collide: each listed contact's bodies
   std::vector<std::vector<int>> scratch_chunk_contacts;  // collide: each chunk's gathered ids
   std::vector<uint8_t> scratch_awake_flag;               // awake_flags()
   // The last collide's touching contacts that are not sensors, in id order: every contact with
   // an awake body that touches, as the step's solver wants them (nothing between collide and
   // the solver changes contacts or puts a body to sleep).
   std::vector<int> touching_contacts;
+  // Beside touching_contacts, each one's bodies: the budgets and the islands walk the touching
+  // contacts for their bodies alone, and a contact record is large and cold.
+  std::vector<ContactBodies> touching_bodies;
   std::vector<double> scratch_chunk_pressed;     // collide: each chunk's largest contact_pressed
   std::vector<uint8_t> scratch_chunk_unsettled;  // collide: whether a chunk has one unsettled
   std::vector<std::vector<int>> scratch_chunk_recovering;  // collide: each chunk's, in id order
@@ -259,6 +268,7 @@ class WorldImpl {
     double most_pressed = 0.0;            // the largest contact_pressed of this step
     bool unsettled = false;               // some contact_unsettled of this step is set
     std::vector<uint8_t> body_unsettled;  // per body: one of its touching contacts is unsettled
+    std::vector<uint8_t> dynamic;         // per body: whether it is dynamic
     std::vector<int> recovering;          // this step's recovering contacts, in id order
     std::vector<int> need, island_need;
     // Per body: a joint holds it to a moving kinematic body or drives it against a body of
