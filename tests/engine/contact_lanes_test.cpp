@@ -126,9 +126,20 @@ TEST(ContactLanes, EveryThreadCountGivesOneThreadsBits) {
   expect_threads_agree(plank, 60);
 }
 
+void add_bouncing_ball(SceneDef* s, Vec2 at, double radius) {
+  SceneBody ball;
+  ball.def.type = BodyType::kDynamic;
+  ball.def.position = at;
+  ShapeDef shape;
+  shape.geometry = Circle{Vec2::Zero(), radius};
+  shape.restitution = 0.5;
+  ball.shapes.push_back(shape);
+  s->bodies.push_back(ball);
+}
+
 // Balls of restitution 0.5 rained onto a pyramid of boxes without it, and one ball dropped
-// alone from 5 m: bouncing lanes share blocks with lanes that do not bounce, in colours and in
-// the overflow (the loaded plank's balls bounce too).
+// alone from 5 m (the last body): bouncing lanes share blocks with lanes that do not bounce,
+// in colours and in the overflow (the loaded plank's balls bounce too).
 SceneDef bouncing_rain() {
   SceneDef s = loaded_plank(40);
   for (SceneBody& b : s.bodies) {
@@ -141,23 +152,9 @@ SceneDef bouncing_rain() {
   p.origin = Vec2(28.0, 0.0);
   scenes::add_pyramid(&s, p);
   for (int i = 0; i < 200; ++i) {
-    SceneBody ball;
-    ball.def.type = BodyType::kDynamic;
-    ball.def.position = Vec2(20.0 + 0.8 * (i % 25), 18.0 + 0.8 * (i / 25));
-    ShapeDef shape;
-    shape.geometry = Circle{Vec2::Zero(), 0.3};
-    shape.restitution = 0.5;
-    ball.shapes.push_back(shape);
-    s.bodies.push_back(ball);
+    add_bouncing_ball(&s, Vec2(20.0 + 0.8 * (i % 25), 18.0 + 0.8 * (i / 25)), 0.3);
   }
-  SceneBody lone;
-  lone.def.type = BodyType::kDynamic;
-  lone.def.position = Vec2(-30.0, 5.0);
-  ShapeDef shape;
-  shape.geometry = Circle{Vec2::Zero(), 0.5};
-  shape.restitution = 0.5;
-  lone.shapes.push_back(shape);
-  s.bodies.push_back(lone);
+  add_bouncing_ball(&s, Vec2(-30.0, 5.0), 0.5);
   return s;
 }
 
