@@ -92,7 +92,9 @@ template <class Fn>
 void each_awake_joint_end(const WorldImpl& w, const std::vector<int>& awake, Fn fn) {
   const std::vector<int>& slot = w.solver_scratch.body_slot;
   if (2 * awake.size() >= static_cast<size_t>(w.body_count)) {
-    for (const Joint& j : w.joints) {
+    for (size_t ji = 0; ji < w.joints.size(); ++ji) {
+      if (ji + kJointFetchAhead < w.joints.size()) fetch_joint(w.joints[ji + kJointFetchAhead]);
+      const Joint& j = w.joints[ji];
       if (!j.alive) continue;
       const Body& a = w.bodies[j.body_a];
       const Body& b = w.bodies[j.body_b];

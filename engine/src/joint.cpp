@@ -174,6 +174,7 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     // All awake bodies (not one budget group), most bodies in all: one pass over the joint pool
     // finds the same joints, already in id order.
     for (size_t ji = 0; ji < joints.size(); ++ji) {
+      if (ji + kJointFetchAhead < joints.size()) fetch_joint(joints[ji + kJointFetchAhead]);
       const Joint& j = joints[ji];
       if (j.alive && (bodies[j.body_a].awake || bodies[j.body_b].awake)) {
         s.joints.push_back(static_cast<int>(ji));
@@ -218,6 +219,13 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     r.dcx = bb.center.x() - ba.center.x();
     r.dcy = bb.center.y() - ba.center.y();
     r.soft = soft;
+    // A plain pin (solved in lanes) has no angle row: it needs no springs and no joint angle
+    // (which skips the arctangent), and its row reads nothing past the joint's first two
+    // cache lines.
+    r.plain_point = j.type == JointType::kRevolute && !j.enable_limit && !j.enable_motor &&
+                    !j.enable_spring && j.spring_impulse == 0.0 && j.motor_impulse == 0.0 &&
+                    j.lower_impulse == 0.0 && j.upper_impulse == 0.0;
+    if (r.plain_point) return;
     r.spring = make_softness(j.hertz, j.damping_ratio, h);
     r.angular_spring = make_softness(j.angular_hertz, j.angular_damping_ratio, h);
     const ScalarBody a = scalar_body(s, r.ia);
@@ -237,15 +245,10 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     } else if (j.type == JointType::kDistance) {
       prepare_distance_joint(j, r, a, b);
     } else if (j.type != JointType::kSpring) {
-      // Revolute, weld and motor: the angle row's mass and the joint angle at tick start. A
-      // plain pin has no angle row: it needs neither (and skips the arctangent).
-      r.plain_point = j.type == JointType::kRevolute && !j.enable_limit && !j.enable_motor &&
-                      !j.enable_spring && j.spring_impulse == 0.0 && j.motor_impulse == 0.0 &&
-                      j.lower_impulse == 0.0 && j.upper_impulse == 0.0;
-      if (!r.plain_point) {
-        r.angle = relative_angle(ba.xf.q, bb.xf.q, j.reference_angle);
-        prepare_revolute_joint(j, r, a, b);
-      }
+      // Revolute (not a plain pin), weld and motor: the angle row's mass and the joint angle at
+      // tick start.
+      r.angle = relative_angle(ba.xf.q, bb.xf.q, j.reference_angle);
+      prepare_revolute_joint(j, r, a, b);
     }
   };
   s.joint_rows.resize(s.joints.size());
@@ -257,7 +260,9 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     const int chunks = static_cast<int>((n_rows + kJointsPerChunk - 1) / kJointsPerChunk);
     auto chunk = [&](int c) {
       const size_t lo = static_cast<size_t>(c) * kJointsPerChunk;
-      for (size_t k = lo; k < std::min(lo + kJointsPerChunk, n_rows); ++k) {
+      const size_t hi = std::min(lo + kJointsPerChunk, n_rows);
+      for (size_t k = lo; k < hi; ++k) {
+        if (k + kJointFetchAhead < hi) fetch_joint(joints[s.joints[k + kJointFetchAhead]]);
         fill_row(k, s.joint_rows[k]);
       }
     };
@@ -414,10 +419,14 @@ void joint_reaction(const Joint& j, double inv_h, const Vec2& axis, Vec2* force,
 }  // namespace
 
 void WorldImpl::break_joints() {
+  if (!breakable_joints) return;
   const double inv_h = settings.substeps / settings.dt;
-  for (int ji : solver_scratch.joints) {
+  const std::vector<int>& list = solver_scratch.joints;
+  for (size_t k = 0; k < list.size(); ++k) {
+    if (k + kJointFetchAhead < list.size()) fetch_joint(joints[list[k + kJointFetchAhead]]);
+    const int ji = list[k];
     Joint& j = joints[ji];
-    if (!j.alive || (std::isinf(j.break_force) && std::isinf(j.break_torque))) continue;
+    if (!j.alive || !may_break(j)) continue;
     Vec2 force;
     double torque;
     // Any unit axis gives the right size of force (a distance joint's, a curve joint's and a
@@ -599,6 +608,7 @@ Status World::set_joint_break_limits(JointId id, double force, double torque) {
   if (!(torque >= 0.0)) return invalid_argument("break_torque: must be >= 0 (infinity: never)");
   impl_->joints[ji].break_force = force;
   impl_->joints[ji].break_torque = torque;
+  if (may_break(impl_->joints[ji])) impl_->breakable_joints = true;
   return {};
 }
 

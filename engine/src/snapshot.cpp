@@ -412,6 +412,9 @@ Status World::restore(const WorldSnapshot& s) {
   }
   w.joints = s.joints;
   w.free_joints = s.free_joints;
+  w.breakable_joints = false;
+  for (const Joint& j : w.joints)
+    w.breakable_joints = w.breakable_joints || (j.alive && may_break(j));
   w.pending_joint_events = s.pending_joint_events;
   w.awake_bodies = s.awake_bodies;
   w.move_buffer = s.move_buffer;

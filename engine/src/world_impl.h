@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <optional>
@@ -39,6 +40,23 @@ struct ContactPress {
   double rest_speed2 = 0.0;  // (|g| dt)^2: faster bodies are not at rest on their contacts
 };
 
+// Walks over the joint pool (or over a list of joints in id order) fetch the joint this many
+// places ahead: on the joint grid the pool (384 bytes a joint) is larger than the caches, and
+// the hardware does not keep up with the stride.
+inline constexpr size_t kJointFetchAhead = 8;
+
+// Fetches a joint's first two cache lines, where state.h keeps what a tick reads of it.
+inline void fetch_joint(const Joint& j) {
+  const char* p = reinterpret_cast<const char*>(&j);
+  __builtin_prefetch(p);
+  __builtin_prefetch(p + 64);
+}
+
+// Whether a joint has a finite break limit (break_joints checks only those).
+inline bool may_break(const Joint& j) {
+  return !std::isinf(j.break_force) || !std::isinf(j.break_torque);
+}
+
 // A contact's two bodies (body indices), as Contact has them.
 struct ContactBodies {
   int a = kNullIndex, b = kNullIndex;
@@ -60,6 +78,9 @@ class WorldImpl {
   std::vector<ManifoldCache> manifold_caches;  // one per contact slot (contact.cpp)
   std::vector<int> free_contacts;
   std::vector<Joint> joints;
+  // Whether any joint may break: set when a finite break limit is set (or restored), never
+  // cleared. Until then break_joints has nothing to check and reads no joint.
+  bool breakable_joints = false;
   std::vector<int> free_joints;
   std::vector<JointId> pending_joint_events;  // destroyed with a body, reported next step
   std::vector<AttractorDef> attractors;       // applied in this order (forces.cpp)

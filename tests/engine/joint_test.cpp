@@ -5,6 +5,7 @@
 #include <cmath>
 #include <vector>
 
+#include "fulcrum/state.h"
 #include "fulcrum/trig.h"
 #include "fulcrum/world.h"
 
@@ -382,6 +383,37 @@ TEST(JointTest, WeldBreaksOnTheTickItsLimitIsPassed) {
   for (int i = 0; i < 30; ++i) w.step();
   EXPECT_LT(w.body_state(weight)->center.y(), -1.0);  // falling freely
   EXPECT_FALSE(w.set_joint_break_limits(id, 1.0, 1.0).ok());
+}
+
+// Break limits are state: a world restored from a snapshot of a breakable weld, into a world
+// that never had a limit set, breaks it on the same tick as the original (and a world that had
+// one set, restored from a snapshot without, no longer breaks anything).
+TEST(JointTest, BreakLimitsComeBackWithARestore) {
+  World w;
+  BodyId ceiling = static_body(w, Vec2::Zero());
+  BodyId weight = box(w, Vec2(0.0, -0.5), 0.5, 0.5);
+  WeldJointDef def;
+  def.body_a = ceiling;
+  def.body_b = weight;
+  def.local_anchor_b = Vec2(0.0, 0.5);
+  JointId id = *w.create_weld_joint(def);
+  const WorldSnapshot unbreakable = w.snapshot();
+  double m = w.body_state(weight)->mass;
+  ASSERT_TRUE(w.set_joint_break_limits(id, 1.5 * m * 10.0, 1e9).ok());
+  for (int i = 0; i < 10; ++i) w.step();
+  World restored;
+  ASSERT_TRUE(restored.restore(w.snapshot()).ok());
+  for (World* world : {&w, &restored}) {
+    ASSERT_TRUE(world->apply_force_to_center(weight, Vec2(0.0, -m * 10.0)).ok());
+    world->step();
+    ASSERT_EQ(world->events().joints_broken.size(), 1u);
+    EXPECT_EQ(world->events().joints_broken[0], id);
+  }
+  ASSERT_TRUE(w.restore(unbreakable).ok());
+  ASSERT_TRUE(w.apply_force_to_center(weight, Vec2(0.0, -3.0 * m * 10.0)).ok());
+  w.step();
+  EXPECT_TRUE(w.events().joints_broken.empty());
+  EXPECT_TRUE(w.is_valid(id));
 }
 
 // A target joint drags a box to its target, never pulling harder than max_force: with
