@@ -225,7 +225,11 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     r.plain_point = j.type == JointType::kRevolute && !j.enable_limit && !j.enable_motor &&
                     !j.enable_spring && j.spring_impulse == 0.0 && j.motor_impulse == 0.0 &&
                     j.lower_impulse == 0.0 && j.upper_impulse == 0.0;
-    if (r.plain_point) return;
+    if (r.plain_point) {
+      r.ix = j.linear_impulse.x();
+      r.iy = j.linear_impulse.y();
+      return;
+    }
     r.spring = make_softness(j.hertz, j.damping_ratio, h);
     r.angular_spring = make_softness(j.angular_hertz, j.angular_damping_ratio, h);
     const ScalarBody a = scalar_body(s, r.ia);
@@ -275,7 +279,7 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     }
   }
   s.joint_rows.resize(n_rows);
-  colour_points(s.joint_rows, joints, s.bodies, s.body_extras, pool, &coloured_points);
+  colour_points(s.joint_rows, s.bodies, s.body_extras, pool, &coloured_points);
   // Only the rows that are not plain points read the angles the bodies turn.
   s.track_angles = !coloured_points.other_rows.empty();
 }

@@ -29,7 +29,7 @@ void clear_lane(PointBlock* b, int l) {
   b->ix[l] = b->iy[l] = 0.0;
 }
 
-void write_lane(const JointRow& r, const Joint& j, const std::vector<SolverBody>& bodies,
+void write_lane(const JointRow& r, const std::vector<SolverBody>& bodies,
                 const std::vector<SolverBodyExtra>& extras, PointBlock* b, int l) {
   b->ia[l] = r.ia;
   b->ib[l] = r.ib;
@@ -43,8 +43,8 @@ void write_lane(const JointRow& r, const Joint& j, const std::vector<SolverBody>
   b->rby[l] = r.rby;
   b->dcx[l] = r.dcx;
   b->dcy[l] = r.dcy;
-  b->ix[l] = j.linear_impulse.x();
-  b->iy[l] = j.linear_impulse.y();
+  b->ix[l] = r.ix;
+  b->iy[l] = r.iy;
 }
 
 struct PathFns {
@@ -138,8 +138,7 @@ void group_other_rows(const std::vector<JointRow>& rows, size_t slots, ColouredP
 
 }  // namespace
 
-void colour_points(const std::vector<JointRow>& rows, const std::vector<Joint>& joints,
-                   const std::vector<SolverBody>& bodies,
+void colour_points(const std::vector<JointRow>& rows, const std::vector<SolverBody>& bodies,
                    const std::vector<SolverBodyExtra>& extras, WorkerPool* pool,
                    ColouredPoints* out) {
   const size_t n_rows = rows.size();
@@ -177,8 +176,7 @@ void colour_points(const std::vector<JointRow>& rows, const std::vector<Joint>& 
     for (size_t k = c * per_chunk; k < std::min((c + 1) * per_chunk, n_rows); ++k) {
       const int lane = lane_of_row[k];
       if (lane < 0) continue;
-      write_lane(rows[k], joints[rows[k].joint], bodies, extras, &out->blocks[lane / kBlockLanes],
-                 lane % kBlockLanes);
+      write_lane(rows[k], bodies, extras, &out->blocks[lane / kBlockLanes], lane % kBlockLanes);
     }
   };
   run_chunks(chunks > 1 ? pool : nullptr, chunks, pack, true);
@@ -191,7 +189,14 @@ void colour_points(const std::vector<JointRow>& rows, const std::vector<Joint>& 
 
 void unpack_points(const ColouredPoints& cp, const std::vector<JointRow>& rows,
                    std::vector<Joint>* joints) {
+  // The rows and the joint pool may be larger than the caches: the row is fetched 16 ahead,
+  // its joint 8 ahead (its index read from the row fetched before).
+  constexpr size_t kAhead = 8;
   for (size_t k = 0; k < rows.size(); ++k) {
+    if (k + 2 * kAhead < rows.size()) __builtin_prefetch(&rows[k + 2 * kAhead].joint);
+    if (k + kAhead < rows.size()) {
+      __builtin_prefetch(&(*joints)[rows[k + kAhead].joint].linear_impulse, 1);
+    }
     const int lane = cp.lane_of_row[k];
     if (lane < 0) continue;
     const PointBlock& b = cp.blocks[lane / kBlockLanes];

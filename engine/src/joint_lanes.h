@@ -81,12 +81,11 @@ void each_other_row(const ColouredPoints& cp, WorkerPool* pool, F row_fn) {
   pool->run(chunks, chunk);
 }
 
-// Colours the plain point rows of `rows` (joints[row.joint] their joints) and packs them into
-// blocks, each lane starting from its joint's accumulated point impulse, sharing the packing
+// Colours the plain point rows of `rows` and packs them into blocks, each lane starting from
+// its row's accumulated point impulse (JointRow::ix, iy), sharing the packing
 // among the pool's threads. With a pool it also groups the other rows; without, they have no
 // chunks.
-void colour_points(const std::vector<JointRow>& rows, const std::vector<Joint>& joints,
-                   const std::vector<SolverBody>& bodies,
+void colour_points(const std::vector<JointRow>& rows, const std::vector<SolverBody>& bodies,
                    const std::vector<SolverBodyExtra>& extras, WorkerPool* pool,
                    ColouredPoints* out);
 // Writes the lanes' point impulses back to their joints.

@@ -28,6 +28,7 @@ struct JointRow {
   // on those rows): solved in lanes (joint_lanes.h), which keep its point impulse for the tick
   // so that the passes never touch the large Joint record.
   bool plain_point = false;
+  double ix = 0.0, iy = 0.0;  // a plain point's accumulated impulse at tick start
 };
 
 // Context shared by every joint row of one substep.
