@@ -358,17 +358,23 @@ TEST(JointTest, WeldHoldsACantilever) {
   EXPECT_NEAR(std::abs(s.reaction_torque), m * 10.0 * 1.0, 0.02 * m * 10.0);
 }
 
+// A 1 kg box welded under a static ceiling at its top edge's centre; returns the weld.
+JointId hang_welded_box(World& w, BodyId* weight) {
+  BodyId ceiling = static_body(w, Vec2::Zero());
+  *weight = box(w, Vec2(0.0, -0.5), 0.5, 0.5);
+  WeldJointDef def;
+  def.body_a = ceiling;
+  def.body_b = *weight;
+  def.local_anchor_b = Vec2(0.0, 0.5);
+  return *w.create_weld_joint(def);
+}
+
 // A weld with a break force between the load it carries (m g) and twice that holds until an
 // extra push of m g arrives, then breaks on that very tick and reports it; the body falls.
 TEST(JointTest, WeldBreaksOnTheTickItsLimitIsPassed) {
   World w;
-  BodyId ceiling = static_body(w, Vec2::Zero());
-  BodyId weight = box(w, Vec2(0.0, -0.5), 0.5, 0.5);
-  WeldJointDef def;
-  def.body_a = ceiling;
-  def.body_b = weight;
-  def.local_anchor_b = Vec2(0.0, 0.5);
-  JointId id = *w.create_weld_joint(def);
+  BodyId weight;
+  JointId id = hang_welded_box(w, &weight);
   double m = w.body_state(weight)->mass;  // 1 kg
   ASSERT_TRUE(w.set_joint_break_limits(id, 1.5 * m * 10.0, 1e9).ok());
   for (int i = 0; i < 120; ++i) {
@@ -390,13 +396,8 @@ TEST(JointTest, WeldBreaksOnTheTickItsLimitIsPassed) {
 // one set, restored from a snapshot without, no longer breaks anything).
 TEST(JointTest, BreakLimitsComeBackWithARestore) {
   World w;
-  BodyId ceiling = static_body(w, Vec2::Zero());
-  BodyId weight = box(w, Vec2(0.0, -0.5), 0.5, 0.5);
-  WeldJointDef def;
-  def.body_a = ceiling;
-  def.body_b = weight;
-  def.local_anchor_b = Vec2(0.0, 0.5);
-  JointId id = *w.create_weld_joint(def);
+  BodyId weight;
+  JointId id = hang_welded_box(w, &weight);
   const WorldSnapshot unbreakable = w.snapshot();
   double m = w.body_state(weight)->mass;
   ASSERT_TRUE(w.set_joint_break_limits(id, 1.5 * m * 10.0, 1e9).ok());
