@@ -88,19 +88,29 @@ int substeps_for(const WorldSettings& s, double ratio) {
 // the joint's other end. Its callers keep maxima, flags and components, the same in any order:
 // with most bodies awake it walks the joint pool once, reading each joint once, and otherwise
 // the awake bodies' joint lists, where a joint between two awake bodies comes up from both.
+// The walk over the pool also lists the awake joints (those with an awake body at either end)
+// in id order for prepare_joints (WorldImpl::tick_joints), so that the tick walks the pool once.
 template <class Fn>
-void each_awake_joint_end(const WorldImpl& w, const std::vector<int>& awake, Fn fn) {
+void each_awake_joint_end(WorldImpl& w, const std::vector<int>& awake, Fn fn) {
   const std::vector<int>& slot = w.solver_scratch.body_slot;
   if (2 * awake.size() >= static_cast<size_t>(w.body_count)) {
+    WorldImpl::TickJoints& listed = w.tick_joints;
+    listed.joints.clear();
+    listed.springs = 0;
     for (size_t ji = 0; ji < w.joints.size(); ++ji) {
       if (ji + kJointFetchAhead < w.joints.size()) fetch_joint(w.joints[ji + kJointFetchAhead]);
       const Joint& j = w.joints[ji];
       if (!j.alive) continue;
       const Body& a = w.bodies[j.body_a];
       const Body& b = w.bodies[j.body_b];
+      if (a.awake || b.awake) {
+        listed.joints.push_back(static_cast<int>(ji));
+        listed.springs += j.type == JointType::kSpring;
+      }
       if (a.awake && a.is_dynamic()) fn(j, slot[j.body_a] - 1, j.body_b);
       if (b.awake && b.is_dynamic()) fn(j, slot[j.body_b] - 1, j.body_a);
     }
+    listed.stamp = w.step_stamp;
     return;
   }
   for (size_t k = 0; k < awake.size(); ++k) {
@@ -538,11 +548,16 @@ void WorldImpl::solve(const std::vector<int>& awake) {
     settings.joint_hertz = joint_hertz * grp.substeps / substeps;
     settings.contact_hertz = contact_hertz * grp.substeps / substeps;
     solve_group(grp.bodies, grp.contacts);
-    solved_joints.insert(solved_joints.end(), solver_scratch.joints.begin(),
-                         solver_scratch.joints.end());
+    if (budget.groups.size() > 1) {
+      solved_joints.insert(solved_joints.end(), solver_scratch.joints.begin(),
+                           solver_scratch.joints.end());
+    }
   }
-  std::sort(solved_joints.begin(), solved_joints.end());
-  solver_scratch.joints.assign(solved_joints.begin(), solved_joints.end());
+  // One group's joints are already all of them, in id order.
+  if (budget.groups.size() > 1) {
+    std::sort(solved_joints.begin(), solved_joints.end());
+    solver_scratch.joints.assign(solved_joints.begin(), solved_joints.end());
+  }
   settings.substeps = substeps;
   settings.velocity_iterations = iterations;
   settings.joint_hertz = joint_hertz;

@@ -947,7 +947,7 @@ void WorldImpl::solve_group(const std::vector<int>& awake,
       if (contact_pass(relax, lane_relax) < set.early_exit_tolerance) break;
     }
   }
-  store_joint_impulses();
+  store_joint_impulses(workers);
   ColouredContacts* lanes = coloured ? &coloured_contacts : nullptr;
   apply_restitution(s, lanes, set.restitution_threshold);
   // Each row writes its own contact, each body its own record.

@@ -170,7 +170,12 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
   // Awake joints in id order, each once (from its lower-indexed awake body).
   s.joints.clear();
   size_t springs = 0;
-  if (awake.size() == awake_bodies.size() && 2 * awake.size() >= static_cast<size_t>(body_count)) {
+  const bool all_awake = awake.size() == awake_bodies.size();
+  if (all_awake && tick_joints.stamp == step_stamp) {
+    // The budgets' walk over the joint pool listed them this tick (budget.cpp).
+    s.joints.assign(tick_joints.joints.begin(), tick_joints.joints.end());
+    springs = tick_joints.springs;
+  } else if (all_awake && 2 * awake.size() >= static_cast<size_t>(body_count)) {
     // All awake bodies (not one budget group), most bodies in all: one pass over the joint pool
     // finds the same joints, already in id order.
     for (size_t ji = 0; ji < joints.size(); ++ji) {
@@ -381,8 +386,8 @@ void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers) {
   });
 }
 
-void WorldImpl::store_joint_impulses() {
-  unpack_points(coloured_points, solver_scratch.joint_rows, &joints);
+void WorldImpl::store_joint_impulses(WorkerPool* workers) {
+  unpack_points(coloured_points, &joints, workers);
 }
 
 namespace {

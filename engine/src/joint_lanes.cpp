@@ -169,6 +169,7 @@ void colour_points(const std::vector<JointRow>& rows, const std::vector<SolverBo
     lane_of_row[k] = next_lane[lane_of_row[k]]++;
     ++out->points;
   }
+  out->lane_joint.assign(static_cast<size_t>(layout.blocks) * kBlockLanes, -1);
   // Each row writes its own lane.
   const size_t per_chunk = 512;
   const int chunks = static_cast<int>((n_rows + per_chunk - 1) / per_chunk);
@@ -177,6 +178,7 @@ void colour_points(const std::vector<JointRow>& rows, const std::vector<SolverBo
       const int lane = lane_of_row[k];
       if (lane < 0) continue;
       write_lane(rows[k], bodies, extras, &out->blocks[lane / kBlockLanes], lane % kBlockLanes);
+      out->lane_joint[lane] = rows[k].joint;
     }
   };
   run_chunks(chunks > 1 ? pool : nullptr, chunks, pack, true);
@@ -187,22 +189,27 @@ void colour_points(const std::vector<JointRow>& rows, const std::vector<SolverBo
   if (pool != nullptr) group_other_rows(rows, bodies.size(), out);
 }
 
-void unpack_points(const ColouredPoints& cp, const std::vector<JointRow>& rows,
-                   std::vector<Joint>* joints) {
-  // The rows and the joint pool may be larger than the caches: the row is fetched 16 ahead,
-  // its joint 8 ahead (its index read from the row fetched before).
-  constexpr size_t kAhead = 8;
-  for (size_t k = 0; k < rows.size(); ++k) {
-    if (k + 2 * kAhead < rows.size()) __builtin_prefetch(&rows[k + 2 * kAhead].joint);
-    if (k + kAhead < rows.size()) {
-      __builtin_prefetch(&(*joints)[rows[k + kAhead].joint].linear_impulse, 1);
+void unpack_points(const ColouredPoints& cp, std::vector<Joint>* joints, WorkerPool* pool) {
+  // Lane by lane, in block order: the blocks and lane_joint are read in memory order, and the
+  // joint pool (it may be larger than the caches) is fetched 8 lanes ahead.
+  constexpr int kAhead = 8;
+  constexpr int kBlocksPerUnpack = 64;
+  const int n_blocks = static_cast<int>(cp.blocks.size());
+  const int chunks = (n_blocks + kBlocksPerUnpack - 1) / kBlocksPerUnpack;
+  auto chunk = [&](int c) {
+    const int lo = c * kBlocksPerUnpack * kBlockLanes;
+    const int hi = std::min((c + 1) * kBlocksPerUnpack, n_blocks) * kBlockLanes;
+    for (int lane = lo; lane < hi; ++lane) {
+      if (lane + kAhead < hi && cp.lane_joint[lane + kAhead] >= 0) {
+        __builtin_prefetch(&(*joints)[cp.lane_joint[lane + kAhead]].linear_impulse, 1);
+      }
+      const int ji = cp.lane_joint[lane];
+      if (ji < 0) continue;
+      const PointBlock& b = cp.blocks[lane / kBlockLanes];
+      (*joints)[ji].linear_impulse = Vec2(b.ix[lane % kBlockLanes], b.iy[lane % kBlockLanes]);
     }
-    const int lane = cp.lane_of_row[k];
-    if (lane < 0) continue;
-    const PointBlock& b = cp.blocks[lane / kBlockLanes];
-    (*joints)[rows[k].joint].linear_impulse =
-        Vec2(b.ix[lane % kBlockLanes], b.iy[lane % kBlockLanes]);
-  }
+  };
+  run_chunks(chunks > 1 ? pool : nullptr, chunks, chunk);
 }
 
 void warm_start_points(ColouredPoints& cp, SolverBody* bodies, WorkerPool* pool) {

@@ -46,6 +46,7 @@ struct ColouredPoints {
   int colours = 0;
   int points = 0;                // plain point rows packed
   std::vector<int> lane_of_row;  // joint row -> block * kBlockLanes + lane (-1: not a point)
+  std::vector<int> lane_joint;   // block * kBlockLanes + lane -> its joint (-1: padding)
   std::vector<int> other_rows;   // the rows that are not plain points, in row order
   // The other rows in groups, for threads: rows that share a solver body (any slot, the static
   // body's too, since their functions write both bodies, one of infinite mass unchanged) are
@@ -88,9 +89,9 @@ void each_other_row(const ColouredPoints& cp, WorkerPool* pool, F row_fn) {
 void colour_points(const std::vector<JointRow>& rows, const std::vector<SolverBody>& bodies,
                    const std::vector<SolverBodyExtra>& extras, WorkerPool* pool,
                    ColouredPoints* out);
-// Writes the lanes' point impulses back to their joints.
-void unpack_points(const ColouredPoints& cp, const std::vector<JointRow>& rows,
-                   std::vector<Joint>* joints);
+// Writes the lanes' point impulses back to their joints, sharing the blocks among the pool's
+// threads (each lane has its own joint).
+void unpack_points(const ColouredPoints& cp, std::vector<Joint>* joints, WorkerPool* pool);
 
 void warm_start_points(ColouredPoints& cp, SolverBody* bodies, WorkerPool* pool);
 void solve_points(ColouredPoints& cp, SolverBody* bodies, const PointRule& rule, WorkerPool* pool);

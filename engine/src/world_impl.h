@@ -168,7 +168,7 @@ class WorldImpl {
   void warm_start_joints(WorkerPool* workers);
   void solve_joints(bool use_bias, WorkerPool* workers);
   // Writes the tick's point impulses of the plain pins' lanes back to their joints.
-  void store_joint_impulses();
+  void store_joint_impulses(WorkerPool* workers);
   // Spring force elements: one substep's forces into the solver bodies' velocities.
   void apply_spring_forces(double h);
   // Removes joints whose last tick's reaction passed their break limits.
@@ -269,6 +269,14 @@ class WorldImpl {
   std::vector<std::vector<int>> scratch_chunk_recovering;  // collide: each chunk's, in id order
   std::vector<int> scratch_awake;
   SolverScratch solver_scratch;
+  // The live joints with an awake body at either end, in id order, and how many are springs:
+  // listed by plan_joint_needs' walk over the joint pool on the tick whose step_stamp is
+  // `stamp`, and taken by that tick's prepare_joints for the whole awake set.
+  struct TickJoints {
+    std::vector<int> joints;
+    size_t springs = 0;
+    uint32_t stamp = 0;
+  } tick_joints;
   struct BudgetGroup {
     int substeps = 0;
     int relax = 0;            // relax passes per substep
