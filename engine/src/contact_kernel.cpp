@@ -44,6 +44,11 @@ void approach_x2(const ContactBlock* blocks, ContactBlockRest* rests, const int*
   approach_blocks<F64x2>(blocks, rests, which, first, end, bodies, before, inv_h);
 }
 
+void integrate_x2(SolverBody* bodies, SolverBodyExtra* extras, const IntegrateRule& rule, int first,
+                  int end) {
+  integrate_bodies<F64x2>(bodies, extras, rule, first, end);
+}
+
 void solve_points_scalar(PointBlock* blocks, int first, int end, SolverBody* bodies,
                          const PointRule& rule) {
   solve_point_blocks<double>(blocks, first, end, bodies, rule);
@@ -314,6 +319,19 @@ PathFns path_fns() {
 }
 
 }  // namespace
+
+lanes::IntegrateFn integrate_fn() {
+  switch (active_simd_path()) {
+    case SimdPath::kAvx512:
+      return lanes::integrate_x4e;
+    case SimdPath::kLanes4:
+      return lanes::integrate_x4;
+    case SimdPath::kLanes2:
+      return lanes::integrate_x2;
+    default:
+      return nullptr;
+  }
+}
 
 namespace {
 

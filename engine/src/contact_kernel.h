@@ -13,8 +13,13 @@
 #include <cmath>
 #include <cstddef>
 #include <cstring>
+#if defined(__SSE2__)
+#include <immintrin.h>
+#endif
 
 #include "contact_lanes.h"
+#include "fulcrum/trig.h"
+#include "trig_kernel.h"
 
 #define FULCRUM_LANE_INLINE inline __attribute__((always_inline))
 
@@ -58,8 +63,18 @@ struct Lane<F64x2> {
     return v;
   }
   static FULCRUM_LANE_INLINE void store(double* p, F64x2 v) { std::memcpy(p, &v, sizeof v); }
-  static FULCRUM_LANE_INLINE F64x2 sqrt(F64x2 v) { return F64x2{std::sqrt(v[0]), std::sqrt(v[1])}; }
-  static FULCRUM_LANE_INLINE double get(F64x2 v, int l) { return v[l]; }
+  // Square roots are correctly rounded in every instruction set: one instruction where there
+  // is one, lane by lane elsewhere.
+  static FULCRUM_LANE_INLINE F64x2 sqrt(F64x2 v) {
+#if defined(__SSE2__)
+    return _mm_sqrt_pd(v);
+#else
+    return F64x2{std::sqrt(v[0]), std::sqrt(v[1])};
+#endif
+  }
+  static FULCRUM_LANE_INLINE double get(F64x2 v, int l) {
+    return v[l];
+  }
   static FULCRUM_LANE_INLINE void load_rows(const double* const* rows, F64x2 out[4]) {
     F64x2 a01 = load(rows[0]), a23 = load(rows[0] + 2);
     F64x2 b01 = load(rows[1]), b23 = load(rows[1] + 2);
@@ -106,9 +121,15 @@ struct Lane<F64x4> {
   static FULCRUM_LANE_INLINE F64x4 load(const double* p) { return load4(p); }
   static FULCRUM_LANE_INLINE void store(double* p, F64x4 v) { std::memcpy(p, &v, sizeof v); }
   static FULCRUM_LANE_INLINE F64x4 sqrt(F64x4 v) {
+#if defined(__AVX__)
+    return _mm256_sqrt_pd(v);
+#else
     return F64x4{std::sqrt(v[0]), std::sqrt(v[1]), std::sqrt(v[2]), std::sqrt(v[3])};
+#endif
   }
-  static FULCRUM_LANE_INLINE double get(F64x4 v, int l) { return v[l]; }
+  static FULCRUM_LANE_INLINE double get(F64x4 v, int l) {
+    return v[l];
+  }
   static FULCRUM_LANE_INLINE void load_rows(const double* const* rows, F64x4 out[4]) {
     transpose4(load4(rows[0]), load4(rows[1]), load4(rows[2]), load4(rows[3]), out);
   }
@@ -469,6 +490,83 @@ FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, ContactBlockRest& rest, int l
   }
   v.store(k, l0, bodies);
   return largest;
+}
+
+// One substep's position update of kCount consecutive solver bodies, each lane with the
+// operations of contact_solver.cpp's integrate_positions (which states them) in their order:
+// speeds capped, dp += h v, and the rotation turned by h w and normalized. The turn's sine and
+// cosine come from det_sincos' own kernels in lanes (trig_kernel.h) when every lane's turn is
+// within pi/4, which det_sincos would pass to them unreduced; otherwise from det_sincos, lane by
+// lane. `extras` (null unless joint rows read the angles turned) adds up each turn.
+template <class V>
+FULCRUM_LANE_INLINE void integrate_lanes(SolverBody* bodies, SolverBodyExtra* extras,
+                                         const IntegrateRule& rule) {
+  using L = Lane<V>;
+  double* rows[L::kCount];
+  double* motion[L::kCount];
+  for (int l = 0; l < L::kCount; ++l) {
+    rows[l] = velocity_row(bodies[l]);
+    motion[l] = rows[l] + 4;
+  }
+  V v[4], m[4];
+  L::load_rows(rows, v);
+  L::load_rows(motion, m);
+  // cap_speeds
+  const V speed2 = v[0] * v[0] + v[1] * v[1];
+  const auto fast = speed2 > L::splat(rule.max_speed * rule.max_speed);
+  const V f = L::splat(rule.max_speed) / L::sqrt(speed2);
+  v[0] = lane_select(fast, v[0] * f, v[0]);
+  v[1] = lane_select(fast, v[1] * f, v[1]);
+  const V max_turn = L::splat(rule.max_turn);
+  v[2] = lane_select(v[2] * v[2] > max_turn * max_turn,
+                     lane_select(v[2] > L::splat(0.0), max_turn, -max_turn), v[2]);
+  const V h = L::splat(rule.h);
+  m[0] += h * v[0];
+  m[1] += h * v[1];
+  const V turn = h * v[2];
+  bool in_kernel = true;
+  for (int l = 0; l < L::kCount; ++l) {
+    if (extras != nullptr) extras[l].da += L::get(turn, l);
+    in_kernel = in_kernel && std::fabs(L::get(turn, l)) <= kPio4;
+  }
+  V tc, ts;
+  if (in_kernel) {
+    ts = kernel_sin(turn, L::splat(0.0));
+    tc = kernel_cos(turn, L::splat(0.0));
+  } else {
+    double sines[L::kCount], cosines[L::kCount];
+    for (int l = 0; l < L::kCount; ++l) {
+      const SinCos sc = det_sincos(L::get(turn, l));
+      sines[l] = sc.sin;
+      cosines[l] = sc.cos;
+    }
+    ts = L::load(sines);
+    tc = L::load(cosines);
+  }
+  // mul(Rot{cos, sin}, q).normalized(); an unturned body keeps its rotation as it is.
+  const V mc = tc * m[2] - ts * m[3];
+  const V ms = ts * m[2] + tc * m[3];
+  const V mag = L::sqrt(mc * mc + ms * ms);
+  const V inv = lane_select(mag > L::splat(0.0), L::splat(1.0) / mag, L::splat(0.0));
+  const auto turned = turn != L::splat(0.0);
+  m[2] = lane_select(turned, mc * inv, m[2]);
+  m[3] = lane_select(turned, ms * inv, m[3]);
+  L::store_rows(v, rows);
+  L::store_rows(m, motion);
+}
+
+// Solver bodies [first, end), kCount at a time and the rest one by one.
+template <class V>
+void integrate_bodies(SolverBody* bodies, SolverBodyExtra* extras, const IntegrateRule& rule,
+                      int first, int end) {
+  constexpr int kCount = Lane<V>::kCount;
+  int k = first;
+  for (; k + kCount <= end; k += kCount) {
+    integrate_lanes<V>(bodies + k, extras != nullptr ? extras + k : nullptr, rule);
+  }
+  for (; k < end; ++k) {
+    integrate_lanes<double>(bodies + k, extras != nullptr ? extras + k : nullptr, rule);
+  }
 }
 
 // Blocks [first, end) of one colour (or, for the scalar path, any blocks in order).

@@ -32,6 +32,11 @@ void FULCRUM_X4_NAME(approach)(const ContactBlock* blocks, ContactBlockRest* res
   approach_blocks<F64x4>(blocks, rests, which, first, end, bodies, before, inv_h);
 }
 
+void FULCRUM_X4_NAME(integrate)(SolverBody* bodies, SolverBodyExtra* extras,
+                                const IntegrateRule& rule, int first, int end) {
+  integrate_bodies<F64x4>(bodies, extras, rule, first, end);
+}
+
 void FULCRUM_X4_NAME(solve_points)(PointBlock* blocks, int first, int end, SolverBody* bodies,
                                    const PointRule& rule) {
   solve_point_blocks<F64x4>(blocks, first, end, bodies, rule);

@@ -80,6 +80,14 @@ struct LaneRule {
 
 // The coloured blocks of one tick. Blocks [colour_start[c], colour_start[c + 1]) hold colour
 // c; blocks from colour_start[colours] on hold the overflow, `overflow` lanes in id order.
+// One substep's position update (contact_kernel.h, integrate_lanes): its length, the speed
+// cap and the turn-rate cap.
+struct IntegrateRule {
+  double h = 0.0;
+  double max_speed = 0.0;
+  double max_turn = 0.0;
+};
+
 struct ColouredContacts {
   std::vector<ContactBlock> blocks;
   std::vector<ContactBlockRest> rests;  // block for block
@@ -166,7 +174,17 @@ void warm_x4e(ContactBlock*, int, int, SolverBody*);
 void separation_x4e(ContactBlock*, const ContactBlockRest*, int, int, const SolverBody*);
 void approach_x4e(const ContactBlock*, ContactBlockRest*, const int*, int, int, const SolverBody*,
                   const VelocityBefore*, double);
+// Solver bodies [first, end) (IntegrateRule); extras null unless the turns are added up.
+using IntegrateFn = void (*)(SolverBody* bodies, SolverBodyExtra* extras, const IntegrateRule& rule,
+                             int first, int end);
+void integrate_x2(SolverBody*, SolverBodyExtra*, const IntegrateRule&, int, int);
+void integrate_x4(SolverBody*, SolverBodyExtra*, const IntegrateRule&, int, int);
+void integrate_x4e(SolverBody*, SolverBodyExtra*, const IntegrateRule&, int, int);
 }  // namespace lanes
+
+// The 2- or 4-lane position update of the active path; null on the scalar path (the caller's
+// own loop).
+lanes::IntegrateFn integrate_fn();
 
 // Blocks per chunk when a colour is shared out among threads: a constant, so that which
 // blocks form a chunk never depends on the thread count.

@@ -693,6 +693,16 @@ void integrate_positions_as(SolverScratch& s, double h, double max_speed, size_t
 
 void integrate_positions(SolverScratch& s, double h, double max_speed, size_t first, size_t end) {
   const bool pseudo = !s.pseudo.empty();
+  // The 2- and 4-lane paths integrate in lanes, with the same bits (contact_kernel.h); the
+  // rigid solver's pseudo velocities and the scalar path take the loop above.
+  if (!pseudo) {
+    if (const lanes::IntegrateFn integrate = integrate_fn()) {
+      const IntegrateRule rule{h, max_speed, max_turn_rate(h)};
+      integrate(s.bodies.data(), s.track_angles ? s.body_extras.data() : nullptr, rule,
+                static_cast<int>(first), static_cast<int>(end));
+      return;
+    }
+  }
   if (s.track_angles) {
     if (pseudo) {
       integrate_positions_as<true, true>(s, h, max_speed, first, end);

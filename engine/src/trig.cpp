@@ -11,6 +11,7 @@
 #include <limits>
 
 #include "fulcrum/math.h"
+#include "trig_kernel.h"
 
 namespace fulcrum {
 namespace {
@@ -27,7 +28,6 @@ constexpr double kTwoOverPi = 0.6366197723675814;
 constexpr double kPio2Part1 = 1.5707963267341256;     // 0x1.921fb544p+0, 33 bits
 constexpr double kPio2Part2 = 6.077100506303966e-11;  // 0x1.0b4611a6p-34, 33 bits
 constexpr double kPio2Part3 = 2.0222662487959506e-21;
-constexpr double kPio4 = 0.7853981633974483;
 // Largest |k| for which k * P1 and k * P2 are exact (53 - 33 = 20 spare bits).
 constexpr double kExactReductionLimit = 1048576.0;  // 2^20
 
@@ -98,55 +98,6 @@ Reduced reduce_pio2(double x) {
   two_sum(r2, tail, &out.hi, &out.lo);
   out.quadrant = quadrant;
   return out;
-}
-
-// --- Kernels on [-pi/4, pi/4] -----------------------------------------------------------------
-//
-// Taylor series, truncated where the next term is below 1e-19 at |r| = pi/4:
-//   sin r = r - r^3/3! + r^5/5! - ... + r^17/17!   (next term r^19/19! ~ 8e-20)
-//   cos r = 1 - r^2/2! + r^4/4! - ... + r^18/18!   (next term r^20/20! ~ 3e-21)
-// The argument arrives as hi + lo; to first order sin(hi + lo) = sin hi + lo cos hi and
-// cos(hi + lo) = cos hi - lo sin hi, with cos hi ~ 1 - hi^2/2 and sin hi ~ hi.
-constexpr double kSin3 = -0.16666666666666666;
-constexpr double kSin5 = 0.008333333333333333;
-constexpr double kSin7 = -0.0001984126984126984;
-constexpr double kSin9 = 2.7557319223985893e-06;
-constexpr double kSin11 = -2.505210838544172e-08;
-constexpr double kSin13 = 1.6059043836821613e-10;
-constexpr double kSin15 = -7.647163731819816e-13;
-constexpr double kSin17 = 2.8114572543455206e-15;
-
-constexpr double kCos4 = 0.041666666666666664;
-constexpr double kCos6 = -0.001388888888888889;
-constexpr double kCos8 = 2.48015873015873e-05;
-constexpr double kCos10 = -2.755731922398589e-07;
-constexpr double kCos12 = 2.08767569878681e-09;
-constexpr double kCos14 = -1.1470745597729725e-11;
-constexpr double kCos16 = 4.779477332387385e-14;
-constexpr double kCos18 = -1.5619206968586225e-16;
-
-double kernel_sin(double x, double y) {
-  double z = x * x;
-  double v = z * x;
-  // sin x = x + x^3 (-1/3!) + x^5 p(z) with p(z) = 1/5! - z/7! + ... + z^6/17!.
-  double p =
-      kSin5 + z * (kSin7 + z * (kSin9 + z * (kSin11 + z * (kSin13 + z * (kSin15 + z * kSin17)))));
-  // Everything but x is small (|.| < 0.09), so it is summed first and x is added last, once.
-  double correction = v * kSin3 + (v * z * p + y * (1.0 - 0.5 * z));
-  return x + correction;
-}
-
-double kernel_cos(double x, double y) {
-  double z = x * x;
-  double p =
-      kCos4 +
-      z * (kCos6 +
-           z * (kCos8 + z * (kCos10 + z * (kCos12 + z * (kCos14 + z * (kCos16 + z * kCos18))))));
-  double hz = 0.5 * z;
-  double w = 1.0 - hz;
-  // 1 - w is exact (Sterbenz, w in [0.69, 1]), so (1 - w) - hz recovers the rounding error of
-  // w exactly and feeds it back in together with the small terms.
-  return w + (((1.0 - w) - hz) + (z * z * p - x * y));
 }
 
 // --- atan on [0, 1] ---------------------------------------------------------------------------

@@ -180,6 +180,44 @@ TEST(ContactLanes, ABallLeavesTheGroundAtHalfItsSpeedOfImpact) {
   EXPECT_NEAR(rebound, 0.5 * impact, 0.005 * impact);
 }
 
+// Seven free boxes far apart, without gravity, spinning from rest to past the turn-rate cap:
+// the bodies are integrated in lanes of 2 or 4 and the rest one by one, and a lane group whose
+// turn per substep exceeds pi/4 takes det_sincos lane by lane.
+SceneDef free_spins() {
+  SceneDef s;
+  s.settings.gravity = Vec2::Zero();
+  const double rates[] = {0.0, 0.5, -3.0, 150.0, 200.0, -300.0, 1000.0};
+  for (int i = 0; i < 7; ++i) {
+    SceneBody b;
+    b.def.type = BodyType::kDynamic;
+    b.def.position = Vec2(10.0 * i, 0.0);
+    b.def.angular_velocity = rates[i];
+    b.def.linear_velocity = Vec2(i == 6 ? 500.0 : 0.0, 0.0);
+    ShapeDef box;
+    box.geometry = make_box(0.5, 0.25);
+    b.shapes.push_back(box);
+    s.bodies.push_back(b);
+  }
+  return s;
+}
+
+TEST(ContactLanes, FreeSpinsTurnByTheirRateOnEveryPath) {
+  const SceneDef scene = free_spins();
+  expect_simd_paths_agree(scene, 30);
+  World w = build(scene);
+  w.step();
+  const std::vector<BodyId> ids = w.bodies();
+  // -300 rad/s turns 1.25 rad a substep (beyond pi/4: det_sincos reduces it), -5 rad a tick;
+  // four normalized products of rotations are within a few ulp of the exact one.
+  const Transform xf = w.body_state(ids[5])->transform;
+  EXPECT_NEAR(xf.q.c, std::cos(-5.0), 1e-13);
+  EXPECT_NEAR(xf.q.s, std::sin(-5.0), 1e-13);
+  // 1000 rad/s is capped at half a turn a substep, pi / h; 500 m/s at max_linear_speed.
+  const double h = scene.settings.dt / scene.settings.substeps;
+  EXPECT_DOUBLE_EQ(w.body_state(ids[6])->angular_velocity, M_PI / h);
+  EXPECT_DOUBLE_EQ(w.body_state(ids[6])->linear_velocity.x(), scene.settings.max_linear_speed);
+}
+
 TEST(ContactLanes, ThreadsAreCheckedAndSurviveARestore) {
   World w = build(pyramid(4));
   EXPECT_FALSE(w.set_threads(0).ok());
