@@ -159,8 +159,15 @@ struct SolverScratch {
   std::vector<int> restitution_rows;  // rows with restitution > 0
   // With restitution rows: each slot's velocity before this substep's forces.
   std::vector<VelocityBefore> velocity_before;
-  std::vector<int> joints;            // awake joints, by id (after solve: every group's)
-  std::vector<JointRow> joint_rows;   // constraints
+  std::vector<int> joints;           // awake joints, by id (after solve: every group's)
+  std::vector<JointRow> joint_rows;  // constraints
+  // Each joint row's slots and kind, written beside it: colour_points reads only these, 12
+  // bytes a row instead of a cache line of each 192-byte row.
+  struct RowSlots {
+    int ia = 0, ib = 0;
+    bool plain_point = false;
+  };
+  std::vector<RowSlots> joint_row_slots;
   std::vector<JointRow> spring_rows;  // spring force elements
 };
 

@@ -261,6 +261,11 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     }
   };
   s.joint_rows.resize(s.joints.size());
+  s.joint_row_slots.resize(s.joints.size());
+  auto note_slots = [&](size_t k) {
+    const JointRow& r = s.joint_rows[k];
+    s.joint_row_slots[k] = SolverScratch::RowSlots{r.ia, r.ib, r.plain_point};
+  };
   s.spring_rows.clear();
   size_t n_rows = 0;
   if (springs == 0) {
@@ -273,6 +278,7 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
       for (size_t k = lo; k < hi; ++k) {
         if (k + kJointFetchAhead < hi) fetch_joint(joints[s.joints[k + kJointFetchAhead]]);
         fill_row(k, s.joint_rows[k]);
+        note_slots(k);
       }
     };
     run_chunks(chunks > 1 ? pool : nullptr, chunks, chunk, true);
@@ -280,11 +286,17 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     // Spring force elements have rows of their own; constraints fill joint_rows in id order.
     for (size_t k = 0; k < s.joints.size(); ++k) {
       const bool spring = joints[s.joints[k]].type == JointType::kSpring;
-      fill_row(k, spring ? s.spring_rows.emplace_back() : s.joint_rows[n_rows++]);
+      if (spring) {
+        fill_row(k, s.spring_rows.emplace_back());
+      } else {
+        fill_row(k, s.joint_rows[n_rows]);
+        note_slots(n_rows++);
+      }
     }
   }
   s.joint_rows.resize(n_rows);
-  colour_points(s.joint_rows, s.bodies, s.body_extras, pool, &coloured_points);
+  s.joint_row_slots.resize(n_rows);
+  colour_points(s.joint_rows, s.joint_row_slots, s.bodies, s.body_extras, pool, &coloured_points);
   // Only the rows that are not plain points read the angles the bodies turn.
   s.track_angles = !coloured_points.other_rows.empty();
 }

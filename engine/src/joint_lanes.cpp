@@ -138,7 +138,9 @@ void group_other_rows(const std::vector<JointRow>& rows, size_t slots, ColouredP
 
 }  // namespace
 
-void colour_points(const std::vector<JointRow>& rows, const std::vector<SolverBody>& bodies,
+void colour_points(const std::vector<JointRow>& rows,
+                   const std::vector<SolverScratch::RowSlots>& slots,
+                   const std::vector<SolverBody>& bodies,
                    const std::vector<SolverBodyExtra>& extras, WorkerPool* pool,
                    ColouredPoints* out) {
   const size_t n_rows = rows.size();
@@ -149,7 +151,7 @@ void colour_points(const std::vector<JointRow>& rows, const std::vector<SolverBo
   out->other_rows.clear();
   int count[kMaxColours + 1] = {};
   for (size_t k = 0; k < n_rows; ++k) {
-    const JointRow& r = rows[k];
+    const SolverScratch::RowSlots& r = slots[k];
     if (!r.plain_point) {
       out->other_rows.push_back(static_cast<int>(k));
       continue;

@@ -82,11 +82,13 @@ void each_other_row(const ColouredPoints& cp, WorkerPool* pool, F row_fn) {
   pool->run(chunks, chunk);
 }
 
-// Colours the plain point rows of `rows` and packs them into blocks, each lane starting from
-// its row's accumulated point impulse (JointRow::ix, iy), sharing the packing
-// among the pool's threads. With a pool it also groups the other rows; without, they have no
-// chunks.
-void colour_points(const std::vector<JointRow>& rows, const std::vector<SolverBody>& bodies,
+// Colours the plain point rows of `rows` (read from `slots`, row for row) and packs them into
+// blocks, each lane starting from its row's accumulated point impulse (JointRow::ix, iy),
+// sharing the packing among the pool's threads. With a pool it also groups the other rows;
+// without, they have no chunks.
+void colour_points(const std::vector<JointRow>& rows,
+                   const std::vector<SolverScratch::RowSlots>& slots,
+                   const std::vector<SolverBody>& bodies,
                    const std::vector<SolverBodyExtra>& extras, WorkerPool* pool,
                    ColouredPoints* out);
 // Writes the lanes' point impulses back to their joints, sharing the blocks among the pool's
