@@ -78,8 +78,6 @@ struct LaneRule {
   ContactBlockRest* rests = nullptr;  // the blocks' rests (solve_coloured sets it)
 };
 
-// The coloured blocks of one tick. Blocks [colour_start[c], colour_start[c + 1]) hold colour
-// c; blocks from colour_start[colours] on hold the overflow, `overflow` lanes in id order.
 // One substep's position update (contact_kernel.h, integrate_lanes): its length, the speed
 // cap and the turn-rate cap.
 struct IntegrateRule {
@@ -88,6 +86,8 @@ struct IntegrateRule {
   double max_turn = 0.0;
 };
 
+// The coloured blocks of one tick. Blocks [colour_start[c], colour_start[c + 1]) hold colour
+// c; blocks from colour_start[colours] on hold the overflow, `overflow` lanes in id order.
 struct ColouredContacts {
   std::vector<ContactBlock> blocks;
   std::vector<ContactBlockRest> rests;  // block for block
