@@ -24,7 +24,7 @@ inline void cpu_relax(int spins) {
 
 }  // namespace
 
-WorkerPool::WorkerPool(int threads) {
+WorkerPool::WorkerPool(int threads) : runs_(std::make_unique<Run[]>(threads)) {
   for (int i = 1; i < threads; ++i) workers_.emplace_back([this, i] { worker_loop(i); });
 }
 
@@ -53,7 +53,12 @@ void WorkerPool::run(int chunks, ChunkFn fn, void* ctx) {
   const uint32_t stage = stage_.load(std::memory_order_relaxed) + 1;
   fn_.store(fn, std::memory_order_relaxed);
   ctx_.store(ctx, std::memory_order_relaxed);
-  chunks_.store(chunks, std::memory_order_relaxed);
+  const int64_t n = threads();
+  for (int64_t t = 0; t < n; ++t) {
+    runs_[t].span.store(
+        span_of(static_cast<uint32_t>(chunks * t / n), static_cast<uint32_t>(chunks * (t + 1) / n)),
+        std::memory_order_relaxed);
+  }
   done_.store(0, std::memory_order_relaxed);
   stage_.store(stage, std::memory_order_release);
   stage_.notify_all();
@@ -62,17 +67,33 @@ void WorkerPool::run(int chunks, ChunkFn fn, void* ctx) {
   for (int spins = 0; done_.load(std::memory_order_acquire) < workers; ++spins) cpu_relax(spins);
 }
 
+bool WorkerPool::take(Run& run, bool from_front, int* chunk) {
+  uint64_t span = run.span.load(std::memory_order_relaxed);
+  for (;;) {
+    const uint32_t front = static_cast<uint32_t>(span), back = static_cast<uint32_t>(span >> 32);
+    if (front >= back) return false;
+    const uint64_t rest = from_front ? span_of(front + 1, back) : span_of(front, back - 1);
+    if (run.span.compare_exchange_weak(span, rest, std::memory_order_relaxed)) {
+      *chunk = static_cast<int>(from_front ? front : back - 1);
+      return true;
+    }
+  }
+}
+
 void WorkerPool::work_on(int thread) {
-  // Thread t takes the t-th of `threads` equal runs of chunks, the same run in every stage of a
+  // Thread t owns the t-th of `threads` equal runs of chunks, the same run in every stage of a
   // step, so that it keeps touching the same part of the world (and its cache lines stay with
-  // one core). Which thread runs a chunk never changes what the chunk computes.
+  // one core); it takes them in order, and then helps the others from the ends of their runs.
+  // Which thread runs a chunk never changes what the chunk computes.
   const ChunkFn fn = fn_.load(std::memory_order_relaxed);
   void* const ctx = ctx_.load(std::memory_order_relaxed);
-  const int64_t chunks = chunks_.load(std::memory_order_relaxed);
-  const int64_t n = threads();
-  const int first = static_cast<int>(chunks * thread / n);
-  const int end = static_cast<int>(chunks * (thread + 1) / n);
-  for (int i = first; i < end; ++i) fn(ctx, i);
+  const int n = threads();
+  int chunk = 0;
+  while (take(runs_[thread], true, &chunk)) fn(ctx, chunk);
+  for (int k = 1; k < n; ++k) {
+    Run& other = runs_[(thread + k) % n];
+    while (take(other, false, &chunk)) fn(ctx, chunk);
+  }
 }
 
 void WorkerPool::worker_loop(int index) {

@@ -1,9 +1,11 @@
 // The threads one world's step may use. A stage is a count of chunks, each a pure function of
-// its index; thread t of T (the caller is thread 0) runs the t-th of T equal runs of chunks,
-// and run() returns when every thread has checked in. What a chunk computes never depends on
-// the thread that runs it (chunk boundaries come from the data, never from the thread count),
-// and chunks of one stage write disjoint memory, so any number of threads gives the same bits
-// as one.
+// its index; thread t of T (the caller is thread 0) owns the t-th of T equal runs of chunks and
+// takes them from the front, and a thread done with its own run takes chunks from the back of
+// the others' (a core slowed by another process, or a run of costlier chunks, does not hold
+// the stage up). run() returns when every chunk has run. What a chunk computes never depends
+// on the thread that runs it (chunk boundaries come from the data, never from the thread
+// count), and chunks of one stage write disjoint memory, so any number of threads gives the
+// same bits as one.
 //
 // Workers spin between the stages of a step (a step has a few hundred) and sleep between
 // steps: begin_busy() / end_busy() bracket a step.
@@ -11,6 +13,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <memory>
 #include <thread>
 #include <vector>
 
@@ -40,13 +43,23 @@ class WorkerPool {
   }
 
  private:
+  // The chunks of a thread's run not yet taken: [front, back), both in one word so that the
+  // owner (from the front) and the others (from the back) take each chunk exactly once.
+  struct alignas(64) Run {
+    std::atomic<uint64_t> span{0};
+  };
+  static uint64_t span_of(uint32_t front, uint32_t back) {
+    return static_cast<uint64_t>(back) << 32 | front;
+  }
+  static bool take(Run& run, bool from_front, int* chunk);
+
   void worker_loop(int index);
   void work_on(int thread);
 
   std::vector<std::thread> workers_;
+  std::unique_ptr<Run[]> runs_;     // one per thread
   std::atomic<uint32_t> stage_{0};  // bumped to start a stage; workers wait on it
   std::atomic<int> done_{0};        // workers finished with the current stage
-  std::atomic<int> chunks_{0};
   std::atomic<ChunkFn> fn_{nullptr};
   std::atomic<void*> ctx_{nullptr};
   std::atomic<bool> busy_{false};

@@ -1,5 +1,6 @@
 // The world's thread pool (engine/src/worker_pool.h): every chunk of a stage runs exactly once,
-// whatever the thread and chunk counts, stage after stage, busy or asleep between stages.
+// whatever the thread and chunk counts, stage after stage, busy or asleep between stages, and a
+// thread with nothing left of its own run helps with the others'.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -30,6 +31,31 @@ TEST(WorkerPool, EveryChunkRunsOnceInEveryStage) {
     }
     pool.end_busy();
   }
+}
+
+// A thread done with its own run takes chunks from the back of the others': here the worker's
+// first chunk (2 of 4; the caller owns 0 and 1) cannot finish until its last chunk (3) has run,
+// which only the caller, taking from the back, can do. Without that the stage would wait for
+// the 10 s limit and the check below would fail.
+TEST(WorkerPool, ThreadsTakeChunksFromTheOthersRuns) {
+  WorkerPool pool(2);
+  std::atomic<bool> last_ran{false};
+  std::atomic<bool> gave_up{false};
+  auto f = [&](int i) {
+    if (i == 3) last_ran.store(true);
+    if (i != 2) return;
+    const auto limit = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (!last_ran.load()) {
+      if (std::chrono::steady_clock::now() > limit) {
+        gave_up.store(true);
+        return;
+      }
+      std::this_thread::yield();
+    }
+  };
+  run_chunks(&pool, 4, f, true);
+  EXPECT_TRUE(last_ran.load());
+  EXPECT_FALSE(gave_up.load());
 }
 
 // Between steps the workers sleep; a stage after a pause still runs every chunk, and a pool
