@@ -303,6 +303,7 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   budget.max_substeps = settings.substeps;
   budget.max_relax = settings.relax_iterations;
   budget.groups.clear();
+  budget.plain_bodies = false;
   if (settings.max_substeps <= settings.substeps) return false;
   const double g = std::sqrt(settings.gravity.x() * settings.gravity.x() +
                              settings.gravity.y() * settings.gravity.y());
@@ -317,7 +318,13 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   // Whether each awake body is dynamic, read once from the large body records.
   std::vector<uint8_t>& dynamic = budget.dynamic;
   dynamic.resize(n);
-  for (int k = 0; k < n; ++k) dynamic[k] = bodies[awake[k]].is_dynamic();
+  bool plain = true;
+  for (int k = 0; k < n; ++k) {
+    const Body& b = bodies[awake[k]];
+    dynamic[k] = b.is_dynamic();
+    plain = plain && dynamic[k] && b.joints.empty();
+  }
+  budget.plain_bodies = plain;
   // A body's position in `awake` if it is there and dynamic; -1 otherwise.
   auto awake_dynamic = [&](int body) {
     const int k = slot[body] - 1;
@@ -501,25 +508,19 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   return true;
 }
 
-bool WorldImpl::one_pass_tick(const std::vector<int>& awake) const {
-  // one_pass_rule implies contact_press(): collide computed most_pressed and unsettled.
-  if (!one_pass_rule(settings) || !budget.recovering.empty() || budget.unsettled ||
-      budget.most_pressed > settings.one_pass_give_tolerance) {
-    return false;
-  }
-  // Every island: no joint, no kinematic body.
-  for (int bi : awake) {
-    const Body& b = bodies[bi];
-    if (!b.is_dynamic() || !b.joints.empty()) return false;
-  }
-  return true;
+bool WorldImpl::one_pass_tick() const {
+  // one_pass_rule implies contact_press(): collide computed most_pressed and unsettled, and
+  // plan_budgets read the awake bodies (plain_bodies: every island without a joint or a
+  // kinematic body).
+  return one_pass_rule(settings) && budget.recovering.empty() && !budget.unsettled &&
+         budget.most_pressed <= settings.one_pass_give_tolerance && budget.plain_bodies;
 }
 
 void WorldImpl::solve(const std::vector<int>& awake) {
   budget.base_substeps = settings.substeps;
   budget.max_iterations = settings.velocity_iterations;
   if (!plan_budgets(awake)) {
-    if (!one_pass_tick(awake)) {
+    if (!one_pass_tick()) {
       solve_group(awake, touching_contacts);
       return;
     }

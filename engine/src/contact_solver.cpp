@@ -83,8 +83,20 @@ inline double current_separation(const Body& a, const Body& b, const ContactPoin
   return dx * nx + dy * ny + p.base_separation;
 }
 
+// Runs fn(first, end) over [0, n) in runs of `per_chunk`, on the pool's threads if any.
+template <class F>
+void for_chunks(WorkerPool* pool, size_t n, size_t per_chunk, F fn) {
+  const int chunks = static_cast<int>((n + per_chunk - 1) / per_chunk);
+  auto chunk = [&](int i) {
+    const size_t lo = static_cast<size_t>(i) * per_chunk;
+    fn(lo, std::min(lo + per_chunk, n));
+  };
+  run_chunks(pool, chunks, chunk);
+}
+
 // `pseudo`: the tick solves split impulses, whose pseudo velocities get an array of their own.
-void load_bodies(WorldImpl& w, const std::vector<int>& awake, bool pseudo, SolverScratch& s) {
+void load_bodies(WorldImpl& w, const std::vector<int>& awake, bool pseudo, SolverScratch& s,
+                 WorkerPool* pool) {
   s.bodies.resize(awake.size() + 1);
   s.body_extras.resize(awake.size() + 1);
   s.slot_body.resize(awake.size() + 1);
@@ -99,21 +111,24 @@ void load_bodies(WorldImpl& w, const std::vector<int>& awake, bool pseudo, Solve
     s.pseudo.clear();
   }
   if (s.body_slot.size() < w.bodies.size()) s.body_slot.resize(w.bodies.size(), 0);
-  for (size_t k = 0; k < awake.size(); ++k) {
-    const Body& b = w.bodies[awake[k]];
-    s.body_slot[awake[k]] = static_cast<int>(k + 1);
-    s.slot_body[k + 1] = awake[k];
-    s.centres[k + 1] = SlotCentre{b.center.x(), b.center.y()};
-    SolverBody& sb = s.bodies[k + 1];
-    sb = SolverBody{};
-    sb.vx = b.v.x();
-    sb.vy = b.v.y();
-    sb.w = b.w;
-    sb.inv_mass = b.inv_mass;
-    SolverBodyExtra& x = s.body_extras[k + 1];
-    x = SolverBodyExtra{};
-    x.inv_inertia = b.inv_inertia;
-  }
+  // Each awake body writes its own slot (and body_slot entry: awake holds each body once).
+  for_chunks(pool, awake.size(), 1024, [&](size_t lo, size_t hi) {
+    for (size_t k = lo; k < hi; ++k) {
+      const Body& b = w.bodies[awake[k]];
+      s.body_slot[awake[k]] = static_cast<int>(k + 1);
+      s.slot_body[k + 1] = awake[k];
+      s.centres[k + 1] = SlotCentre{b.center.x(), b.center.y()};
+      SolverBody& sb = s.bodies[k + 1];
+      sb = SolverBody{};
+      sb.vx = b.v.x();
+      sb.vy = b.v.y();
+      sb.w = b.w;
+      sb.inv_mass = b.inv_mass;
+      SolverBodyExtra& x = s.body_extras[k + 1];
+      x = SolverBodyExtra{};
+      x.inv_inertia = b.inv_inertia;
+    }
+  });
 }
 
 // The speed caps: the linear speed at max_linear_speed and the turn at half a turn per substep
@@ -320,17 +335,6 @@ void prepare_row(const WorldImpl& w, const SolverScratch& s, const RowRule& r, s
       extra.i22 = k11 * inv_det;
     }
   }
-}
-
-// Runs fn(first, end) over [0, n) in runs of `per_chunk`, on the pool's threads if any.
-template <class F>
-void for_chunks(WorkerPool* pool, size_t n, size_t per_chunk, F fn) {
-  const int chunks = static_cast<int>((n + per_chunk - 1) / per_chunk);
-  auto chunk = [&](int i) {
-    const size_t lo = static_cast<size_t>(i) * per_chunk;
-    fn(lo, std::min(lo + per_chunk, n));
-  };
-  run_chunks(pool, chunks, chunk);
 }
 
 // Every row, for the rigid step (solved row by row) and the reference solver.
@@ -855,6 +859,9 @@ void finalize_bodies(WorldImpl& w, const std::vector<int>& awake, SolverScratch&
     b.center += Vec2(sb.dpx, sb.dpy);
     if (sb.qs != 0.0 || sb.qc != 1.0) b.xf.q = mul(Rot{sb.qc, sb.qs}, b.xf.q).normalized();
     b.xf.p = b.center - b.xf.q.rotate(b.local_center);
+    // The applied force lasts one tick; prepare_drives read it.
+    b.force = Vec2::Zero();
+    b.torque = 0.0;
   }
 }
 
@@ -875,7 +882,10 @@ void WorldImpl::solve_group(const std::vector<int>& awake,
   BiasRule relax = rule;
   relax.use_bias = false;
 
-  load_bodies(*this, awake, rule.rigid && rule.split, s);
+  // Many bodies to load: shared with the pool's threads (which stay busy for the whole group).
+  WorkerPool* const loaders = pool != nullptr && awake.size() >= 4096 ? pool : nullptr;
+  if (loaders != nullptr) loaders->begin_busy();
+  load_bodies(*this, awake, rule.rigid && rule.split, s, loaders);
   s.contacts.assign(contacts_sorted.begin(), contacts_sorted.end());
   s.drives.resize(awake.size());
   // Soft contacts are solved colour by colour in lanes (contact_lanes.h); rigid contacts (the
@@ -965,7 +975,7 @@ void WorldImpl::solve_group(const std::vector<int>& awake,
              [&](size_t lo, size_t hi) { store_impulses(*this, s, lanes, lo, hi); });
   for_chunks(workers, awake.size(), 256,
              [&](size_t lo, size_t hi) { finalize_bodies(*this, awake, s, h, lo, hi); });
-  if (workers != nullptr) workers->end_busy();
+  if (workers != nullptr || loaders != nullptr) pool->end_busy();
 }
 
 void WorldImpl::prepare_reference_tick() {
@@ -979,8 +989,8 @@ void WorldImpl::prepare_reference_tick() {
 
   SolverScratch& s = solver_scratch;
   const double h = settings.dt;
-  budget.base_substeps = settings.substeps;  // impulses as kept, not rescaled
-  load_bodies(*this, awake, false, s);       // the reference solver moves no body
+  budget.base_substeps = settings.substeps;      // impulses as kept, not rescaled
+  load_bodies(*this, awake, false, s, nullptr);  // the reference solver moves no body
   s.contacts.assign(touching_contacts.begin(), touching_contacts.end());
   prepare(*this, s, h, nullptr);
   prepare_joints(awake, h);

@@ -682,10 +682,6 @@ Status World::try_step() {
   w.synchronize_awake(awake);
   w.update_sleep(awake);
 
-  for (int bi : awake) {
-    w.bodies[bi].force = Vec2::Zero();
-    w.bodies[bi].torque = 0.0;
-  }
   auto by_shapes = [](const ContactEvent& a, const ContactEvent& b) {
     return a.shape_a.index != b.shape_a.index ? a.shape_a.index < b.shape_a.index
                                               : a.shape_b.index < b.shape_b.index;

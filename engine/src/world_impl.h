@@ -235,7 +235,7 @@ class WorldImpl {
   bool plan_budgets(const std::vector<int>& awake_sorted);
   // Whether a tick no island runs a budget of its own solves one velocity pass per substep
   // (WorldSettings::one_pass_give_tolerance; budget.cpp).
-  bool one_pass_tick(const std::vector<int>& awake_sorted) const;
+  bool one_pass_tick() const;
   // plan_budgets' joint part: joins the joint components in scratch_parent and, unless
   // `gravity` is 0 (joint budgets off), sets each component root's need in budget.need; true
   // when one needs more than the world's substeps. Marks budget.held as it walks the joints.
@@ -298,7 +298,10 @@ class WorldImpl {
     bool unsettled = false;               // some contact_unsettled of this step is set
     std::vector<uint8_t> body_unsettled;  // per body: one of its touching contacts is unsettled
     std::vector<uint8_t> dynamic;         // per body: whether it is dynamic
-    std::vector<int> recovering;          // this step's recovering contacts, in id order
+    // Every awake body is dynamic and holds no joint (read with `dynamic`, for one_pass_tick;
+    // false when plan_budgets stopped before reading them).
+    bool plain_bodies = false;
+    std::vector<int> recovering;  // this step's recovering contacts, in id order
     std::vector<int> need, island_need;
     // Per body: a joint holds it to a moving kinematic body or drives it against a body of
     // infinite mass (plan_joint_needs).
