@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
-# Determinism across builds: the same scenes, stepped by gcc -O0, clang -O0 and clang -O2 builds
-# of the `fulcrum` CLI, must end with the same state hash as the main build (gcc -O2); and the
-# golden scenarios (tests/golden: edits between ticks, sleeping, every joint type) must give the
-# main build's fulcrum_golden output line for line, i.e. the same hash at every tick; and a bot
-# player of each variant follows a multiplayer session on a main-build server for 10 000 ticks,
-# checking every confirmed tick's hash. Run by tools/test.sh after the test suite; builds land in
-# build-det-VARIANT/.
+# Determinism across builds: the same scenes, stepped by gcc -O0 and clang -O2 builds of the
+# `fulcrum` CLI, must end with the same state hash as the main build (gcc -O2); and the golden
+# scenarios (tests/golden: edits between ticks, sleeping, every joint type) must give the main
+# build's fulcrum_golden output line for line, i.e. the same hash at every tick; and a bot player
+# of each variant follows a multiplayer session on a main-build server for 3000 ticks, checking
+# every confirmed tick's hash. Run by tools/test.sh after the test suite; builds land in
+# build-det-VARIANT/. A clang -O0 variant ran here until 2026-11-29: with gcc at -O0 and -O2 and
+# clang at -O2 it added no compiler and no optimisation level, and cost 8 minutes of CI.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 
@@ -37,9 +38,8 @@ build_variant() {  # name, then extra cmake arguments
   }
 }
 
-VARIANTS=(gcc-O0 clang-O0 clang-O2)
+VARIANTS=(gcc-O0 clang-O2)
 build_variant gcc-O0 -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_COMPILER=g++
-build_variant clang-O0 -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_COMPILER=clang++
 build_variant clang-O2 -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_COMPILER=clang++
 
 # No fused multiply-add in the x86-64 engine either: the 4-lane contact path is built with
@@ -93,7 +93,7 @@ done
 # built by each variant, each stepping its own copy of the world with every confirmed tick
 # and checking the server's state hash at each (`fulcrum session bot` exits 1 at the first that
 # differs). Turn by turn (--seal all-inputs), so every tick waits for every bot's input.
-session_ticks=${FULCRUM_DET_SESSION_TICKS:-10000}
+session_ticks=${FULCRUM_DET_SESSION_TICKS:-3000}
 server_log=$(mktemp)
 "$FULCRUM_BUILD/bin/fulcrum-server" --listen 127.0.0.1:0 > "$server_log" 2>&1 &
 server=$!
