@@ -3,8 +3,8 @@
 #   1. build-asan/: clang with AddressSanitizer, LeakSanitizer and UndefinedBehaviorSanitizer,
 #      every target but the benchmarks; every ctest entry runs but five long physics runs (see
 #      below), the scripts that drive the built fulcrum and fulcrum-server binaries (cli.*,
-#      server.*, python.*) included. Then every fuzz
-#      target (tests/fuzz/, built here with libFuzzer) fuzzes for 20 s (tools/fuzz.sh --smoke).
+#      server.*, python.*) included. Then every fuzz target (tests/fuzz/, built here with
+#      libFuzzer) fuzzes for 20 s (tools/fuzz.sh --smoke).
 #   2. build-tsan/: clang with ThreadSanitizer; the tests of Fulcrum's threaded code that does not
 #      go through gRPC (see below).
 # Both are -O1 with assertions on (a Debug build whose -O0 is replaced) and -fno-sanitize-recover,
