@@ -29,8 +29,8 @@ WorkerPool::WorkerPool(int threads) : runs_(std::make_unique<Run[]>(threads)) {
 }
 
 WorkerPool::~WorkerPool() {
-  stop_.store(true, std::memory_order_relaxed);
-  stage_.fetch_add(1, std::memory_order_release);
+  stop_.store(true, std::memory_order_release);
+  stage_.fetch_add(2, std::memory_order_release);
   stage_.notify_all();
   for (std::thread& t : workers_) t.join();
 }
@@ -49,8 +49,7 @@ void WorkerPool::run(int chunks, ChunkFn fn, void* ctx) {
     for (int i = 0; i < chunks; ++i) fn(ctx, i);
     return;
   }
-  // Every worker has checked in for the previous stage, so none still reads these fields.
-  const uint32_t stage = stage_.load(std::memory_order_relaxed) + 1;
+  // The previous stage is closed and no worker is inside it (below), so none reads these fields.
   fn_.store(fn, std::memory_order_relaxed);
   ctx_.store(ctx, std::memory_order_relaxed);
   const int64_t n = threads();
@@ -59,12 +58,17 @@ void WorkerPool::run(int chunks, ChunkFn fn, void* ctx) {
         span_of(static_cast<uint32_t>(chunks * t / n), static_cast<uint32_t>(chunks * (t + 1) / n)),
         std::memory_order_relaxed);
   }
-  done_.store(0, std::memory_order_relaxed);
-  stage_.store(stage, std::memory_order_release);
+  const uint32_t open = (stage_.load(std::memory_order_relaxed) | 1u) + 2u;
+  stage_.store(open, std::memory_order_release);
   stage_.notify_all();
   work_on(0);
-  const int workers = static_cast<int>(workers_.size());
-  for (int spins = 0; done_.load(std::memory_order_acquire) < workers; ++spins) cpu_relax(spins);
+  // Every chunk has been taken. Closing the stage and then waiting for the workers inside it
+  // waits for the chunks they took, and for nobody else: a worker that has not come in yet (asleep,
+  // or its core taken by another process) finds the stage closed and stays out, so it never holds
+  // the step up. The two sequentially consistent pairs (close, then read `active_`; enter, then
+  // read `stage_`) let no worker in unseen.
+  stage_.store(open & ~1u, std::memory_order_seq_cst);
+  for (int spins = 0; active_.load(std::memory_order_seq_cst) != 0; ++spins) cpu_relax(spins);
 }
 
 bool WorkerPool::take(Run& run, bool from_front, int* chunk) {
@@ -97,24 +101,27 @@ void WorkerPool::work_on(int thread) {
 }
 
 void WorkerPool::worker_loop(int index) {
-  uint32_t seen = 0;
+  uint32_t seen = 0;  // the last stage this worker went into
   for (;;) {
     uint32_t stage = stage_.load(std::memory_order_acquire);
     int spins = 0;
-    while (stage == seen) {
+    // Wait for an open stage (odd) that this worker has not been into.
+    while (stage == seen || (stage & 1u) == 0) {
+      if (stop_.load(std::memory_order_acquire)) return;
       if (busy_.load(std::memory_order_relaxed) && spins < kSpinLimit) {
         cpu_relax(spins);
         ++spins;
       } else {
-        stage_.wait(seen, std::memory_order_acquire);
+        stage_.wait(stage, std::memory_order_acquire);
         spins = 0;
       }
       stage = stage_.load(std::memory_order_acquire);
     }
     if (stop_.load(std::memory_order_relaxed)) return;
     seen = stage;
-    work_on(index);
-    done_.fetch_add(1, std::memory_order_release);
+    active_.fetch_add(1, std::memory_order_seq_cst);
+    if (stage_.load(std::memory_order_seq_cst) == stage) work_on(index);
+    active_.fetch_sub(1, std::memory_order_release);
   }
 }
 

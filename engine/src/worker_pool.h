@@ -2,7 +2,9 @@
 // its index; thread t of T (the caller is thread 0) owns the t-th of T equal runs of chunks and
 // takes them from the front, and a thread done with its own run takes chunks from the back of
 // the others' (a core slowed by another process, or a run of costlier chunks, does not hold
-// the stage up). run() returns when every chunk has run. What a chunk computes never depends
+// the stage up). run() returns when every chunk has run; it waits only for the workers that
+// came into the stage, never for one that was asleep or descheduled while the others did the
+// work. What a chunk computes never depends
 // on the thread that runs it (chunk boundaries come from the data, never from the thread
 // count), and chunks of one stage write disjoint memory, so any number of threads gives the
 // same bits as one.
@@ -57,9 +59,10 @@ class WorkerPool {
   void work_on(int thread);
 
   std::vector<std::thread> workers_;
-  std::unique_ptr<Run[]> runs_;     // one per thread
-  std::atomic<uint32_t> stage_{0};  // bumped to start a stage; workers wait on it
-  std::atomic<int> done_{0};        // workers finished with the current stage
+  std::unique_ptr<Run[]> runs_;  // one per thread
+  // Stage number * 2, + 1 while the stage is open to workers; workers wait on it.
+  std::atomic<uint32_t> stage_{0};
+  std::atomic<int> active_{0};  // workers inside a stage (in work_on)
   std::atomic<ChunkFn> fn_{nullptr};
   std::atomic<void*> ctx_{nullptr};
   std::atomic<bool> busy_{false};
