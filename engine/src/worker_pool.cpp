@@ -117,7 +117,6 @@ void WorkerPool::worker_loop(int index) {
       }
       stage = stage_.load(std::memory_order_acquire);
     }
-    if (stop_.load(std::memory_order_relaxed)) return;
     seen = stage;
     active_.fetch_add(1, std::memory_order_seq_cst);
     if (stage_.load(std::memory_order_seq_cst) == stage) work_on(index);

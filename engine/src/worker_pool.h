@@ -4,10 +4,9 @@
 // the others' (a core slowed by another process, or a run of costlier chunks, does not hold
 // the stage up). run() returns when every chunk has run; it waits only for the workers that
 // came into the stage, never for one that was asleep or descheduled while the others did the
-// work. What a chunk computes never depends
-// on the thread that runs it (chunk boundaries come from the data, never from the thread
-// count), and chunks of one stage write disjoint memory, so any number of threads gives the
-// same bits as one.
+// work. What a chunk computes never depends on the thread that runs it (chunk boundaries come
+// from the data, never from the thread count), and chunks of one stage write disjoint memory,
+// so any number of threads gives the same bits as one.
 //
 // Workers spin between the stages of a step (a step has a few hundred) and sleep between
 // steps: begin_busy() / end_busy() bracket a step.
