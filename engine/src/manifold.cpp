@@ -595,4 +595,11 @@ Manifold collide(const Geometry& a, const Transform& xfa, const Geometry& b, con
   return Manifold{};
 }
 
+Manifold no_points(ShapeType ta, ShapeType tb) {
+  if (ta > tb) return flipped(no_points(tb, ta));
+  // The pairs collide hands to the swapped function, as its switch does.
+  const bool swapped = ta < tb && !(ta == ShapeType::kSegment && tb == ShapeType::kPolygon);
+  return swapped ? flipped(empty_manifold()) : empty_manifold();
+}
+
 }  // namespace fulcrum

@@ -43,4 +43,11 @@ Manifold collide_polygons(const Polygon& a, const Transform& xfa, const Polygon&
 Manifold collide(const Geometry& a, const Transform& xfa, const Geometry& b, const Transform& xfb,
                  double speculative);
 
+// What collide returns for shapes of these types when no point comes closer than the speculative
+// distance, bit for bit (a pair handled by the swapped function has its zero normal negated).
+// Every point collide reports lies between the surfaces with a separation no less than their
+// distance, so shapes whose boxes are farther apart than the speculative distance get this
+// without calling collide.
+Manifold no_points(ShapeType ta, ShapeType tb);
+
 }  // namespace fulcrum

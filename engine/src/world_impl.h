@@ -140,6 +140,18 @@ class WorldImpl {
   // to it wherever a leaf's box is set (create_proxy, moves, restore). The narrow phase's
   // overlap test and the moved-box checks read it without touching the shape or the tree.
   std::vector<AABB> fat_boxes;
+  // Each awake shape's box and its body's velocity as the narrow phase starts (collide's first
+  // round fills them when it has many contacts to refresh); `call` says which collide call
+  // filled it. Not state: an entry filled by an earlier call is never read (collide_calls only
+  // grows; a restore makes a new WorldImpl).
+  struct alignas(64) AwakeBox {
+    AABB box;
+    Vec2 v = Vec2::Zero();
+    uint64_t call = 0;
+    ShapeType type = ShapeType::kCircle;
+  };
+  std::vector<AwakeBox> awake_boxes;
+  uint64_t collide_calls = 0;
   std::vector<int> move_buffer;  // shape indices whose proxies moved or were created
   std::vector<std::pair<int, AABB>> pending_moves;  // proxy and new fat box (commit_moves)
   double tree_built_cost = 0.0;  // tree.cost() after its last rebuild (commit_moves)
@@ -215,6 +227,7 @@ class WorldImpl {
   // stopped overlapping; reports begin/end events; wakes bodies touched by awake ones. Lists
   // the touching contacts it leaves (touching_contacts).
   void collide();
+  void fill_awake_boxes();
   // awake_bodies[first, end); with `press`, each contact's load figures too (press_contact),
   // and with `recovery`, the recovering contacts (budget.recovering).
   void collide_round(size_t first, size_t end, const std::optional<ContactPress>& press,
