@@ -4,7 +4,7 @@
 # native build's fulcrum_golden. Prints PASS or FAIL and exits non-zero on FAIL.
 #
 # Installs g++-aarch64-linux-gnu and qemu-user when missing (through sudo when not root). The
-# cross build (only engine/, scenes/ and tests/golden/, through tools/cross/CMakeLists.txt: no
+# cross build (only engine/, scenes/ and tests/golden/, through tools/engine_only/CMakeLists.txt: no
 # protobuf or gRPC, which cannot be installed for a foreign architecture) lands in
 # build-cross-aarch64/; the native reference is $FULCRUM_BUILD/bin/fulcrum_golden (build/ by
 # default), built here when missing or out of date. FULCRUM_JOBS sets the build parallelism.
@@ -39,15 +39,15 @@ installed=$SECONDS
 # --- Native reference ------------------------------------------------------------------------
 if [ ! -f "$FULCRUM_BUILD/build.ninja" ]; then
   quiet cmake -S "$FULCRUM_ROOT" -B "$FULCRUM_BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release \
-    -DFULCRUM_WERROR=ON
+    -DFULCRUM_WERROR=ON $(fulcrum_launcher)
 fi
 quiet cmake --build "$FULCRUM_BUILD" -j "$JOBS" --target fulcrum_golden
 
 # --- Cross build -----------------------------------------------------------------------------
 if [ ! -f "$CROSS_BUILD/build.ninja" ]; then
-  quiet cmake -S "$FULCRUM_ROOT/tools/cross" -B "$CROSS_BUILD" -G Ninja \
+  quiet cmake -S "$FULCRUM_ROOT/tools/engine_only" -B "$CROSS_BUILD" -G Ninja \
     -DCMAKE_BUILD_TYPE=Release -DFULCRUM_WERROR=ON \
-    -DCMAKE_TOOLCHAIN_FILE="$FULCRUM_ROOT/tools/toolchain-aarch64.cmake"
+    -DCMAKE_TOOLCHAIN_FILE="$FULCRUM_ROOT/tools/toolchain-aarch64.cmake" $(fulcrum_launcher)
 fi
 quiet cmake --build "$CROSS_BUILD" -j "$JOBS" --target fulcrum_golden
 built=$SECONDS

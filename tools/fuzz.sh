@@ -43,7 +43,7 @@ else
 fi
 
 if ! grep -q '^FULCRUM_FUZZ:BOOL=ON' "$dir/CMakeCache.txt" 2>/dev/null; then
-  fulcrum_configure_sanitized "$dir" address,undefined -DFULCRUM_FUZZ=ON
+  fulcrum_configure_asan "$dir"
 fi
 build_targets=(fulcrum_fuzz_seeds)
 for t in "${run[@]}"; do build_targets+=("fulcrum_fuzz_$t"); done

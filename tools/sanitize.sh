@@ -54,7 +54,7 @@ summary=()
 # --- 1. AddressSanitizer + LeakSanitizer + UndefinedBehaviorSanitizer: every ctest entry --------
 start=$SECONDS
 asan="$FULCRUM_ROOT/build-asan"
-fulcrum_configure_sanitized "$asan" address,undefined -DFULCRUM_FUZZ=ON
+fulcrum_configure_asan "$asan"
 build "$asan"
 built=$((SECONDS - start))
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:detect_stack_use_after_return=1:strict_string_checks=1:check_initialization_order=1:log_path=$asan/sanitizer-logs/asan"

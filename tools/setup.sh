@@ -22,6 +22,8 @@ FULCRUM_PACKAGES=(
   # and wheel install it into a virtual environment without the network (tests/python).
   python3-grpcio python3-protobuf python3-numpy python3-pytest
   python3-venv python3-setuptools python3-wheel
+  # a compiler cache for the builds (fulcrum_launcher below)
+  ccache
   # the Kubernetes manifests' check (tests/deploy/check_manifests.py)
   python3-yaml
   # `fulcrum view`'s browser test (tests/cli/view_test.py): headless Chromium, driven over the
@@ -42,10 +44,26 @@ fulcrum_install_packages() {
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
 }
 
+# The cmake arguments that make a build directory compile through ccache, when it is installed:
+# a build of sources compiled before -- by another clone, or into a build directory since
+# removed -- then takes the objects from the cache (~/.cache/ccache) instead of compiling them
+# again, and the test command's six builds take most of its time. Every configure below passes
+# them. Paths below the checkout are hashed relative to it, so clones in other directories share
+# entries; the sloppiness lets files that use precompiled headers be cached. FULCRUM_CCACHE=OFF
+# does without (for directories configured afresh).
+fulcrum_launcher() {
+  if [ "${FULCRUM_CCACHE:-ON}" = ON ] && command -v ccache > /dev/null; then
+    echo "-DCMAKE_CXX_COMPILER_LAUNCHER=ccache"
+  fi
+}
+export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$FULCRUM_ROOT}"
+export CCACHE_NOHASHDIR="${CCACHE_NOHASHDIR:-true}"
+export CCACHE_SLOPPINESS="${CCACHE_SLOPPINESS:-pch_defines,time_macros,include_file_mtime,include_file_ctime}"
+
 fulcrum_build() {
   if [ ! -f "$FULCRUM_BUILD/build.ninja" ]; then
     cmake -S "$FULCRUM_ROOT" -B "$FULCRUM_BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release \
-      -DFULCRUM_WERROR=ON
+      -DFULCRUM_WERROR=ON $(fulcrum_launcher)
   fi
   cmake --build "$FULCRUM_BUILD" -j "$(nproc)"
 }
@@ -59,8 +77,14 @@ fulcrum_configure_sanitized() {
   shift 2
   cmake -S "$FULCRUM_ROOT" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Debug \
     "-DCMAKE_CXX_FLAGS_DEBUG=-O1 -gline-tables-only" -DCMAKE_CXX_COMPILER=clang++ \
-    -DFULCRUM_BUILD_TESTS=ON -DFULCRUM_BUILD_BENCH=OFF -DFULCRUM_SANITIZE="$sanitize" "$@" \
-    > /dev/null
+    -DFULCRUM_BUILD_TESTS=ON -DFULCRUM_BUILD_BENCH=OFF -DFULCRUM_SANITIZE="$sanitize" \
+    $(fulcrum_launcher) "$@" > /dev/null
+}
+
+# build-asan/ (or $1): ASan+LeakSanitizer+UBSan with libFuzzer's instrumentation, the build of
+# tools/sanitize.sh, tools/fuzz.sh and the clang -O1 CLI of tools/determinism.sh.
+fulcrum_configure_asan() {
+  fulcrum_configure_sanitized "${1:-$FULCRUM_ROOT/build-asan}" address,undefined -DFULCRUM_FUZZ=ON
 }
 
 # Every C++ file as clang-format (Debian's 14) would write it, per .clang-format.
