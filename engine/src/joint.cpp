@@ -213,6 +213,7 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     const Body& bb = bodies[j.body_b];
     r = JointRow{};
     r.joint = s.joints[k];
+    r.type = j.type;
     r.ia = ba.awake ? s.body_slot[j.body_a] : 0;
     r.ib = bb.awake ? s.body_slot[j.body_b] : 0;
     Vec2 ra = ba.xf.q.rotate(j.local_a - ba.local_center);
@@ -258,6 +259,23 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
       // tick start.
       r.angle = relative_angle(ba.xf.q, bb.xf.q, j.reference_angle);
       prepare_revolute_joint(j, r, a, b);
+      if (j.type == JointType::kRevolute) {
+        r.ix = j.linear_impulse.x();
+        r.iy = j.linear_impulse.y();
+        RevoluteRow& v = r.revolute;
+        v.spring = j.enable_spring;
+        v.motor = j.enable_motor;
+        v.limit = j.enable_limit;
+        v.target_angle = j.target_angle;
+        v.motor_speed = j.motor_speed;
+        v.max_motor_torque = j.max_motor_torque;
+        v.lower_angle = j.lower_angle;
+        v.upper_angle = j.upper_angle;
+        v.spring_impulse = j.spring_impulse;
+        v.motor_impulse = j.motor_impulse;
+        v.lower_impulse = j.lower_impulse;
+        v.upper_impulse = j.upper_impulse;
+      }
     }
   };
   s.joint_rows.resize(s.joints.size());
@@ -308,13 +326,13 @@ void WorldImpl::warm_start_joints(WorkerPool* workers) {
     const JointRow& r = s.joint_rows[k];
     ScalarBody a = scalar_body(s, r.ia);
     ScalarBody b = scalar_body(s, r.ib);
-    Joint& j = joints[r.joint];
-    switch (j.type) {
+    Joint& j = joints[r.joint];  // read by every type but revolute
+    switch (r.type) {
       case JointType::kDistance:
         warm_start_distance_joint(j, r, a, b);
         break;
       case JointType::kRevolute:
-        warm_start_revolute_joint(j, r, a, b);
+        warm_start_revolute_joint(r, a, b);  // from its row alone
         break;
       case JointType::kWeld:
         warm_start_weld_joint(j, r, a, b);
@@ -361,16 +379,16 @@ void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers) {
   rule.max_speed = st.max_speed;
   solve_points(coloured_points, s.bodies.data(), rule, workers);
   each_other_row(coloured_points, workers, [&](int k) {
-    const JointRow& r = s.joint_rows[k];
+    JointRow& r = s.joint_rows[k];
     ScalarBody a = scalar_body(s, r.ia);
     ScalarBody b = scalar_body(s, r.ib);
-    Joint& j = joints[r.joint];
-    switch (j.type) {
+    Joint& j = joints[r.joint];  // read by every type but revolute
+    switch (r.type) {
       case JointType::kDistance:
         solve_distance_joint(j, r, st, a, b);
         break;
       case JointType::kRevolute:
-        solve_revolute_joint(j, r, st, a, b);
+        solve_revolute_joint(r, st, a, b);  // from its row alone
         break;
       case JointType::kWeld:
         solve_weld_joint(j, r, st, a, b);
@@ -400,6 +418,17 @@ void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers) {
 
 void WorldImpl::store_joint_impulses(WorkerPool* workers) {
   unpack_points(coloured_points, &joints, workers);
+  SolverScratch& s = solver_scratch;
+  each_other_row(coloured_points, workers, [&](int k) {
+    const JointRow& r = s.joint_rows[k];
+    if (r.type != JointType::kRevolute) return;
+    Joint& j = joints[r.joint];
+    j.linear_impulse = Vec2(r.ix, r.iy);
+    j.spring_impulse = r.revolute.spring_impulse;
+    j.motor_impulse = r.revolute.motor_impulse;
+    j.lower_impulse = r.revolute.lower_impulse;
+    j.upper_impulse = r.revolute.upper_impulse;
+  });
 }
 
 namespace {

@@ -6,15 +6,30 @@
 #include <cmath>
 
 #include "contact_solver.h"
+#include "fulcrum/joints.h"
 #include "fulcrum/math.h"
 
 namespace fulcrum {
 
 struct Joint;
 
+// A revolute joint's angle rows for one tick: its settings and accumulated impulses, copied from
+// the Joint when the row is filled and written back after the tick (store_joint_impulses), so
+// that the passes read the row alone and never the large Joint record (a ragdoll's limited,
+// braked joints are touched a dozen times a tick).
+struct RevoluteRow {
+  bool spring = false, motor = false, limit = false;  // enable_spring, _motor, _limit
+  double target_angle = 0.0;
+  double motor_speed = 0.0, max_motor_torque = 0.0;
+  double lower_angle = 0.0, upper_angle = 0.0;
+  double spring_impulse = 0.0, motor_impulse = 0.0;
+  double lower_impulse = 0.0, upper_impulse = 0.0;
+};
+
 struct JointRow {
   int joint = -1;
-  int ia = 0, ib = 0;           // solver body slots (0: the shared static body)
+  int ia = 0, ib = 0;  // solver body slots (0: the shared static body)
+  JointType type = JointType::kDistance;
   double rax = 0.0, ray = 0.0;  // anchors relative to the centres of mass, tick start, world
   double rbx = 0.0, rby = 0.0;
   double dcx = 0.0, dcy = 0.0;        // centre of B minus centre of A, tick start
@@ -28,7 +43,10 @@ struct JointRow {
   // on those rows): solved in lanes (joint_lanes.h), which keep its point impulse for the tick
   // so that the passes never touch the large Joint record.
   bool plain_point = false;
-  double ix = 0.0, iy = 0.0;  // a plain point's accumulated impulse at tick start
+  // A revolute joint's accumulated point impulse: a plain point's at tick start; the other
+  // revolute rows keep it (and `revolute`) up to date through the tick.
+  double ix = 0.0, iy = 0.0;
+  RevoluteRow revolute;
 };
 
 // Context shared by every joint row of one substep.
@@ -218,9 +236,9 @@ void solve_curve_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarB
 void apply_spring_force(Joint& j, const JointRow& r, double h, ScalarBody& a, ScalarBody& b);
 
 void prepare_revolute_joint(const Joint& j, JointRow& r, const ScalarBody& a, const ScalarBody& b);
-void warm_start_revolute_joint(const Joint& j, const JointRow& r, ScalarBody& a, ScalarBody& b);
-void solve_revolute_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarBody& a,
-                          ScalarBody& b);
+// A revolute joint that is not a plain point, from and into its row (JointRow::revolute, ix, iy).
+void warm_start_revolute_joint(const JointRow& r, ScalarBody& a, ScalarBody& b);
+void solve_revolute_joint(JointRow& r, const JointStep& st, ScalarBody& a, ScalarBody& b);
 // A revolute joint's point rows, with its accumulated point impulse in `impulse` (x, y).
 void solve_revolute_point(const JointRow& r, const JointStep& st, double* impulse, ScalarBody& a,
                           ScalarBody& b);

@@ -33,37 +33,38 @@ void prepare_revolute_joint(const Joint& j, JointRow& r, const ScalarBody& a, co
   (void)j;
 }
 
-void warm_start_revolute_joint(const Joint& j, const JointRow& r, ScalarBody& a, ScalarBody& b) {
+void warm_start_revolute_joint(const JointRow& r, ScalarBody& a, ScalarBody& b) {
+  const RevoluteRow& v = r.revolute;
   JointFrame f = joint_frame(r, a, b);
-  double axial = j.spring_impulse + j.motor_impulse + j.lower_impulse - j.upper_impulse;
-  apply_joint_impulse(f, j.linear_impulse.x(), j.linear_impulse.y(), a, b);
+  double axial = v.spring_impulse + v.motor_impulse + v.lower_impulse - v.upper_impulse;
+  apply_joint_impulse(f, r.ix, r.iy, a, b);
   apply_angular(axial, a, b);
 }
 
-void solve_revolute_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarBody& a,
-                          ScalarBody& b) {
+void solve_revolute_joint(JointRow& r, const JointStep& st, ScalarBody& a, ScalarBody& b) {
+  RevoluteRow& v = r.revolute;
   const bool turns = a.inv_inertia + b.inv_inertia > 0.0;
   const double theta = r.angle + (b.da - a.da);
 
-  if (j.enable_spring && turns) {
-    double c = theta - j.target_angle;
+  if (v.spring && turns) {
+    double c = theta - v.target_angle;
     double lambda = -r.spring.mass_scale * r.axial_mass * ((b.w - a.w) + r.spring.bias_rate * c) -
-                    r.spring.impulse_scale * j.spring_impulse;
-    j.spring_impulse += lambda;
+                    r.spring.impulse_scale * v.spring_impulse;
+    v.spring_impulse += lambda;
     apply_angular(lambda, a, b);
   }
-  if (j.enable_motor && turns) {
-    double lambda = -r.axial_mass * ((b.w - a.w) - j.motor_speed);
-    double limit = j.max_motor_torque * st.h;
-    double acc = std::clamp(j.motor_impulse + lambda, -limit, limit);
-    lambda = acc - j.motor_impulse;
-    j.motor_impulse = acc;
+  if (v.motor && turns) {
+    double lambda = -r.axial_mass * ((b.w - a.w) - v.motor_speed);
+    double limit = v.max_motor_torque * st.h;
+    double acc = std::clamp(v.motor_impulse + lambda, -limit, limit);
+    lambda = acc - v.motor_impulse;
+    v.motor_impulse = acc;
     apply_angular(lambda, a, b);
   }
-  if (j.enable_limit && turns) {
+  if (v.limit && turns) {
     double bias, ms, is;
     // Lower: theta - lower >= 0.
-    double c = theta - j.lower_angle;
+    double c = theta - v.lower_angle;
     if (c > 0.0) {
       bias = c * st.inv_h;
       ms = 1.0;
@@ -71,13 +72,13 @@ void solve_revolute_joint(Joint& j, const JointRow& r, const JointStep& st, Scal
     } else {
       joint_bias(st, r.soft, c, &bias, &ms, &is);
     }
-    double lambda = -ms * r.axial_mass * ((b.w - a.w) + bias) - is * j.lower_impulse;
-    double acc = std::max(j.lower_impulse + lambda, 0.0);
-    lambda = acc - j.lower_impulse;
-    j.lower_impulse = acc;
+    double lambda = -ms * r.axial_mass * ((b.w - a.w) + bias) - is * v.lower_impulse;
+    double acc = std::max(v.lower_impulse + lambda, 0.0);
+    lambda = acc - v.lower_impulse;
+    v.lower_impulse = acc;
     apply_angular(lambda, a, b);
     // Upper: upper - theta >= 0.
-    c = j.upper_angle - theta;
+    c = v.upper_angle - theta;
     if (c > 0.0) {
       bias = c * st.inv_h;
       ms = 1.0;
@@ -85,17 +86,18 @@ void solve_revolute_joint(Joint& j, const JointRow& r, const JointStep& st, Scal
     } else {
       joint_bias(st, r.soft, c, &bias, &ms, &is);
     }
-    lambda = -ms * r.axial_mass * ((a.w - b.w) + bias) - is * j.upper_impulse;
-    acc = std::max(j.upper_impulse + lambda, 0.0);
-    lambda = acc - j.upper_impulse;
-    j.upper_impulse = acc;
+    lambda = -ms * r.axial_mass * ((a.w - b.w) + bias) - is * v.upper_impulse;
+    acc = std::max(v.upper_impulse + lambda, 0.0);
+    lambda = acc - v.upper_impulse;
+    v.upper_impulse = acc;
     apply_angular(-lambda, a, b);
   }
 
   // The point: two rows solved together through K.
-  double impulse[2] = {j.linear_impulse.x(), j.linear_impulse.y()};
+  double impulse[2] = {r.ix, r.iy};
   solve_revolute_point(r, st, impulse, a, b);
-  j.linear_impulse = Vec2(impulse[0], impulse[1]);
+  r.ix = impulse[0];
+  r.iy = impulse[1];
 }
 
 // The point: two rows solved together through K.
