@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The whole test suite: install what is missing, check formatting, build with warnings as
 # errors, run every test through ctest in parallel, then check that gcc -O0 and clang -O2 builds
-# step scenes to the same state hashes as the main build, and that an aarch64 build
+# of the engine give the main build's golden hashes at every tick (tools/determinism.sh, which
+# also steps scenes and a session with the ASan+UBSan build's CLI), and that an aarch64 build
 # (Debian's cross compiler, run under qemu-user) gives the golden hashes at every tick; last, the
 # sanitizer builds (tools/sanitize.sh: ASan+UBSan on every test, TSan on the threaded code).
 set -euo pipefail
