@@ -231,11 +231,11 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     r.plain_point = j.type == JointType::kRevolute && !j.enable_limit && !j.enable_motor &&
                     !j.enable_spring && j.spring_impulse == 0.0 && j.motor_impulse == 0.0 &&
                     j.lower_impulse == 0.0 && j.upper_impulse == 0.0;
-    if (r.plain_point) {
+    if (j.type == JointType::kRevolute) {  // its point impulse, pin or not
       r.ix = j.linear_impulse.x();
       r.iy = j.linear_impulse.y();
-      return;
     }
+    if (r.plain_point) return;
     r.spring = make_softness(j.hertz, j.damping_ratio, h);
     r.angular_spring = make_softness(j.angular_hertz, j.angular_damping_ratio, h);
     const ScalarBody a = scalar_body(s, r.ia);
@@ -260,8 +260,6 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
       r.angle = relative_angle(ba.xf.q, bb.xf.q, j.reference_angle);
       prepare_revolute_joint(j, r, a, b);
       if (j.type == JointType::kRevolute) {
-        r.ix = j.linear_impulse.x();
-        r.iy = j.linear_impulse.y();
         RevoluteRow& v = r.revolute;
         v.spring = j.enable_spring;
         v.motor = j.enable_motor;
