@@ -203,6 +203,8 @@ class WorldImpl {
 
   // --- broad phase (broad_phase.cpp) ---
   void create_proxy(int shape);
+  // How far past a shape its fat box reaches: the speculative distance and a margin.
+  double box_reach(const Shape& s) const;
   void destroy_proxy(int shape);
   // Re-fits a body's moved shapes in the tree at once (edits).
   void synchronize_shapes(int body);

@@ -158,8 +158,10 @@ struct WorldSettings {
 
   // Collision.
   double speculative_distance = 0.02;  // m, >= 0: contact points kept up to this separation
-  double aabb_margin = 0.1;            // m, >= 0: fattening of broad-phase boxes
-  double max_linear_speed = 400.0;     // m/s, > 0: speeds above are clamped
+  // m, >= 0: most a broad-phase box is fattened past its shape's reach (the speculative
+  // distance); a shape gets an eighth of its half-diagonal up to this, a static shape none.
+  double aabb_margin = 0.1;
+  double max_linear_speed = 400.0;  // m/s, > 0: speeds above are clamped
   // A touching manifold between flat shapes (polygons without rounding, segments) is moved
   // with the bodies instead of found again while B has moved at most this far relative to A
   // since it was found, at each point and at the shapes' ends through turning (0: never).
