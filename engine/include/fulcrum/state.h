@@ -89,17 +89,20 @@ struct alignas(64) Body {
   bool rotates() const { return type != BodyType::kParticle && !fixed_rotation; }
 };
 
+// The body and the filter come first, in one cache line before the geometry's several: the
+// broad phase's pair test reads them for every pair a moved shape finds, most often the parts
+// of one ragdoll that its group keeps apart, and nothing else of the shape.
 struct Shape {
   int body = kNullIndex;
   uint32_t generation = 0;
   bool alive = false;
+  bool is_sensor = false;
+  bool in_move_buffer = false;
+  int proxy = kNullIndex;  // broad-phase leaf
+  Filter filter;
   Geometry geometry;
   double density = 0.0, friction = 0.0, restitution = 0.0;
-  Filter filter;
-  bool is_sensor = false;
   uint64_t user_data = 0;
-  int proxy = kNullIndex;  // broad-phase leaf
-  bool in_move_buffer = false;
 };
 
 // The fields every tick reads for each awake joint come first, in its first two cache lines
