@@ -39,6 +39,7 @@ const state = {
   tick: null,
   hash: "",
   describing: null,       // the /api/describe request in flight
+  describeAgain: null,    // a describe queued behind it
   events: null,           // live: the EventSource
   drag: null,             // {joint, target: [x, y]} while a body is dragged
   replay: null,           // replay: /api/info's replay object
@@ -84,7 +85,17 @@ function applyFrame(f) {
 
 // Fetches the shapes of every body (again when bodies appear that the page does not know).
 function describe() {
-  if (state.describing) return state.describing;
+  if (state.describing) {
+    // The request in flight may have left before the change its caller knows of (an edit, a
+    // new drag joint): describe once more after it.
+    if (!state.describeAgain) {
+      state.describeAgain = state.describing.then(() => {
+        state.describeAgain = null;
+        return describe();
+      });
+    }
+    return state.describeAgain;
+  }
   const path = state.mode === "live" ? `/api/describe?world=${state.world}` : "/api/describe";
   state.describing = api(path)
     .then((d) => {
@@ -516,7 +527,8 @@ new ResizeObserver(resize).observe(canvas);
 // For tests and the console: the view transform and what is drawn.
 window.fulcrumView = {
   toCanvas, toWorld, view,
-  ready: () => state.tick !== null && state.shapes.size > 0 && view.fitted && !state.describing,
+  ready: () => state.tick !== null && state.shapes.size > 0 && view.fitted && !state.describing &&
+    !state.describeAgain,
   tick: () => state.tick,
   hash: () => state.hash,
   bodies: () => [...state.bodies].map(([index, b]) => ({
