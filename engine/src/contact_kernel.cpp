@@ -274,7 +274,11 @@ void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<Solve
   out->colours = layout.colours;
   out->overflow = count[kMaxColours];
   // Lanes in id order within each colour; pack_row then fills each row's lane.
-  for (size_t k = 0; k < n_rows; ++k) lane_of_row[k] = next_lane[lane_of_row[k]]++;
+  out->row_of_lane.assign(static_cast<size_t>(layout.blocks) * kBlockLanes, -1);
+  for (size_t k = 0; k < n_rows; ++k) {
+    lane_of_row[k] = next_lane[lane_of_row[k]]++;
+    out->row_of_lane[lane_of_row[k]] = static_cast<int>(k);
+  }
   out->blocks.resize(layout.blocks);
   out->rests.resize(layout.blocks);
   // Empty lanes at the end of each colour and of the overflow: the static body on both sides,

@@ -95,6 +95,7 @@ struct ColouredContacts {
   int colours = 0;
   int overflow = 0;
   std::vector<int> lane_of_row;       // row -> block * kBlockLanes + lane
+  std::vector<int> row_of_lane;       // block * kBlockLanes + lane -> row (-1: padding)
   std::vector<int> bounce_blocks;     // blocks holding a contact with restitution, ascending
   std::vector<uint32_t> body_use;     // scratch: colours used per solver body
   std::vector<double> chunk_largest;  // scratch: each chunk's largest impulse

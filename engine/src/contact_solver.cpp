@@ -806,11 +806,27 @@ void apply_restitution(SolverScratch& s, ColouredContacts* lanes, double thresho
   }
 }
 
-void store_impulses(WorldImpl& w, SolverScratch& s, ColouredContacts* lanes, size_t first,
-                    size_t end) {
-  // Per world substep, whatever this group ran (budget.cpp).
-  const int substeps = w.settings.substeps, base = w.budget.base_substeps;
-  const double per_base = static_cast<double>(substeps) / base;
+// What the contacts keep of their points' impulses for the next tick: per world substep,
+// whatever this group ran (budget.cpp).
+struct ImpulseKeep {
+  bool rescale;
+  double per_base;
+  explicit ImpulseKeep(const WorldImpl& w)
+      : rescale(w.settings.substeps != w.budget.base_substeps),
+        per_base(static_cast<double>(w.settings.substeps) / w.budget.base_substeps) {}
+  void operator()(ManifoldPoint& p, double normal, double tangent) const {
+    p.normal_impulse = normal;
+    p.tangent_impulse = tangent;
+    if (rescale) {
+      p.normal_impulse *= per_base;
+      p.tangent_impulse *= per_base;
+    }
+  }
+};
+
+// The rigid step's rows [first, end), in id order.
+void store_impulses(WorldImpl& w, const SolverScratch& s, size_t first, size_t end) {
+  const ImpulseKeep keep(w);
   // The contacts are large and cold: each is fetched a few rows ahead of its store.
   constexpr size_t kAhead = 8;
   for (size_t k = first; k < end; ++k) {
@@ -818,26 +834,36 @@ void store_impulses(WorldImpl& w, SolverScratch& s, ColouredContacts* lanes, siz
       const ManifoldPoint* far = w.contacts[s.contacts[k + kAhead]].manifold.points;
       __builtin_prefetch(&far[0].normal_impulse, 1);
       __builtin_prefetch(&far[1].normal_impulse, 1);
-      if (lanes != nullptr) {
-        const int lane = lanes->lane_of_row[k + kAhead];
-        const LanePoint* q = lanes->blocks[lane / kBlockLanes].points;
-        const int l = lane % kBlockLanes;
-        __builtin_prefetch(&q[0].normal_impulse[l]);
-        __builtin_prefetch(&q[0].tangent_impulse[l]);
-        __builtin_prefetch(&q[1].normal_impulse[l]);
-        __builtin_prefetch(&q[1].tangent_impulse[l]);
-      }
     }
     Manifold& m = w.contacts[s.contacts[k]].manifold;
-    const int count = lanes != nullptr ? s.row_points[k] : m.count;
-    for (int i = 0; i < count; ++i) {
-      const PointImpulses acc = impulses_of(s, lanes, k, i);
-      m.points[i].normal_impulse = *acc.normal;
-      m.points[i].tangent_impulse = *acc.tangent;
-      if (substeps != base) {
-        m.points[i].normal_impulse *= per_base;
-        m.points[i].tangent_impulse *= per_base;
-      }
+    for (int i = 0; i < m.count; ++i) {
+      keep(m.points[i], s.rows[k].points[i].normal_impulse, s.rows[k].points[i].tangent_impulse);
+    }
+  }
+}
+
+// The coloured lanes' rows, blocks [first, end) in lane order: each lane streams out of its
+// block and writes its own contact.
+void store_lane_impulses(WorldImpl& w, const SolverScratch& s, const ColouredContacts& cc,
+                         size_t first, size_t end) {
+  const ImpulseKeep keep(w);
+  const int* const row_of_lane = cc.row_of_lane.data();
+  const size_t lane_end = end * kBlockLanes;
+  // In lane order the contacts are scattered: each is fetched a few lanes ahead of its store.
+  constexpr size_t kAhead = 8;
+  for (size_t lane = first * kBlockLanes; lane < lane_end; ++lane) {
+    if (lane + kAhead < lane_end && row_of_lane[lane + kAhead] >= 0) {
+      const ManifoldPoint* far = w.contacts[s.contacts[row_of_lane[lane + kAhead]]].manifold.points;
+      __builtin_prefetch(&far[0].normal_impulse, 1);
+      __builtin_prefetch(&far[1].normal_impulse, 1);
+    }
+    const int k = row_of_lane[lane];
+    if (k < 0) continue;
+    const LanePoint* q = cc.blocks[lane / kBlockLanes].points;
+    const size_t l = lane % kBlockLanes;
+    Manifold& m = w.contacts[s.contacts[k]].manifold;
+    for (int i = 0; i < s.row_points[k]; ++i) {
+      keep(m.points[i], q[i].normal_impulse[l], q[i].tangent_impulse[l]);
     }
   }
 }
@@ -971,8 +997,14 @@ void WorldImpl::solve_group(const std::vector<int>& awake,
   ColouredContacts* lanes = coloured ? &coloured_contacts : nullptr;
   apply_restitution(s, lanes, set.restitution_threshold);
   // Each row writes its own contact, each body its own record.
-  for_chunks(workers, s.contacts.size(), 256,
-             [&](size_t lo, size_t hi) { store_impulses(*this, s, lanes, lo, hi); });
+  if (coloured) {
+    for_chunks(workers, coloured_contacts.blocks.size(), 32, [&](size_t lo, size_t hi) {
+      store_lane_impulses(*this, s, coloured_contacts, lo, hi);
+    });
+  } else {
+    for_chunks(workers, s.contacts.size(), 256,
+               [&](size_t lo, size_t hi) { store_impulses(*this, s, lo, hi); });
+  }
   for_chunks(workers, awake.size(), 256,
              [&](size_t lo, size_t hi) { finalize_bodies(*this, awake, s, h, lo, hi); });
   if (workers != nullptr || loaders != nullptr) pool->end_busy();
