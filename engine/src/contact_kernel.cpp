@@ -184,39 +184,6 @@ void clear_lane(ContactBlock* b, ContactBlockRest* r, int l) {
   clear_point(&b->points[1], &r->points[1], l);
 }
 
-void write_lane(const SolverBody* bodies, const SolverBodyExtra* extras, const ContactRow& row,
-                const double* approach_speed, ContactBlock* b, ContactBlockRest* rest, int l) {
-  b->ia[l] = row.ia;
-  b->ib[l] = row.ib;
-  b->write_a[l] = bodies[row.ia].inv_mass > 0.0;
-  b->write_b[l] = bodies[row.ib].inv_mass > 0.0;
-  b->inv_inertia_a[l] = extras[row.ia].inv_inertia;
-  b->inv_inertia_b[l] = extras[row.ib].inv_inertia;
-  b->nx[l] = row.nx;
-  b->ny[l] = row.ny;
-  b->friction[l] = row.friction;
-  for (int i = 0; i < 2; ++i) {
-    LanePoint* q = &b->points[i];
-    LanePointRest* r = &rest->points[i];
-    if (i >= row.count) {
-      clear_point(q, r, l);  // a one-point manifold's second point changes nothing
-      continue;
-    }
-    const ContactPointRow& p = row.points[i];
-    q->rax[l] = p.rax;
-    q->ray[l] = p.ray;
-    q->rbx[l] = p.rbx;
-    q->rby[l] = p.rby;
-    r->base_separation[l] = p.base_separation;
-    q->normal_mass[l] = p.normal_mass;
-    q->tangent_mass[l] = p.tangent_mass;
-    q->normal_impulse[l] = p.normal_impulse;
-    q->tangent_impulse[l] = p.tangent_impulse;
-    r->max_normal_impulse[l] = p.max_normal_impulse;
-    r->approach_speed[l] = approach_speed != nullptr ? approach_speed[i] : 0.0;
-  }
-}
-
 }  // namespace
 
 int take_colour(std::vector<uint32_t>& use, int a, bool write_a, int b, bool write_b,
@@ -273,7 +240,7 @@ void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<Solve
   int* next_lane = layout.next_lane;  // advanced as rows take their lanes
   out->colours = layout.colours;
   out->overflow = count[kMaxColours];
-  // Lanes in id order within each colour; pack_row then fills each row's lane.
+  // Lanes in id order within each colour; prepare_lane then fills each row's lane.
   out->row_of_lane.assign(static_cast<size_t>(layout.blocks) * kBlockLanes, -1);
   for (size_t k = 0; k < n_rows; ++k) {
     lane_of_row[k] = next_lane[lane_of_row[k]]++;
@@ -288,13 +255,13 @@ void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<Solve
   });
 }
 
-void pack_row(const SolverBody* bodies, const SolverBodyExtra* extras, const ContactRow& row,
-              const double* approach_speed, size_t k, ColouredContacts* cc) {
-  const int lane_index = cc->lane_of_row[k];
-  ContactBlock* block = &cc->blocks[lane_index / kBlockLanes];
-  ContactBlockRest* rest = &cc->rests[lane_index / kBlockLanes];
-  write_lane(bodies, extras, row, approach_speed, block, rest, lane_index % kBlockLanes);
-  separation_lanes<double>(*block, *rest, lane_index % kBlockLanes, bodies);
+void clear_lane_point(ContactBlock* block, ContactBlockRest* rest, int point, int lane) {
+  clear_point(&block->points[point], &rest->points[point], lane);
+}
+
+void refresh_lane_separation(const SolverBody* bodies, ContactBlock* block,
+                             const ContactBlockRest* rest, int lane) {
+  separation_lanes<double>(*block, *rest, lane, bodies);
 }
 
 // --- Passes ----------------------------------------------------------------------------------

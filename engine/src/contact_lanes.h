@@ -133,14 +133,17 @@ void pad_colours(const ColourLayout& layout, std::vector<Block>* blocks, Clear c
 }
 
 // Colours the rows (in id order) by their bodies and lays out the blocks: each row's lane
-// (lane_of_row), the colours' ranges, the padding. The rows' lanes are left for pack_row.
+// (lane_of_row, and row_of_lane back), the colours' ranges, the padding. The rows' lanes are
+// left for their preparation (contact_solver.cpp, prepare_lane), which may write the lanes of
+// one block on different threads.
 void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<SolverBody>& bodies,
                      ColouredContacts* out);
-// Writes row k (prepared) into its lane, with its separations computed from the bodies' motion
-// as update_separations would, and its points' approach speeds (restitution only, else null).
-// Rows of one block may be packed on different threads.
-void pack_row(const SolverBody* bodies, const SolverBodyExtra* extras, const ContactRow& row,
-              const double* approach_speed, size_t k, ColouredContacts* cc);
+// Point `point` of a lane whose manifold has fewer points: zero masses and impulses, so that it
+// changes nothing.
+void clear_lane_point(ContactBlock* block, ContactBlockRest* rest, int point, int lane);
+// A written lane's separations from the bodies' motion, as update_separations computes them.
+void refresh_lane_separation(const SolverBody* bodies, ContactBlock* block,
+                             const ContactBlockRest* rest, int lane);
 
 // Lanes [first, first + count) of blocks, for each path. Each returns the largest corrective
 // impulse (0 unless the rule asks for it). Declared per path so that the 4-lane path can live in a

@@ -266,9 +266,38 @@ Vec2 centre_of(const WorldImpl& w, const SolverScratch& s, int slot, int body) {
   return Vec2(s.centres[slot].x, s.centres[slot].y);
 }
 
-// Row k (contact s.contacts[k], its bodies in solver slots `slots`): depends only on its own
-// contact and bodies. The extra's approach speeds only for a contact with restitution (nothing
-// else reads them).
+// Point mp of a row between bodies a and b (their centres of mass at the tick's start), along
+// the unit normal (nx, ny): what the rigid step's rows and the lanes are both prepared from.
+ContactPointRow prepare_point(const RowRule& r, const ManifoldPoint& mp, Vec2 centre_a,
+                              Vec2 centre_b, const ScalarBody& a, const ScalarBody& b, double nx,
+                              double ny) {
+  const double tx = ny, ty = -nx;
+  const double m = a.inv_mass + b.inv_mass;
+  ContactPointRow p;
+  p.rax = mp.point.x() - centre_a.x();
+  p.ray = mp.point.y() - centre_a.y();
+  p.rbx = mp.point.x() - centre_b.x();
+  p.rby = mp.point.y() - centre_b.y();
+  p.base_separation = mp.separation - ((p.rbx - p.rax) * nx + (p.rby - p.ray) * ny);
+  double rna = p.rax * ny - p.ray * nx, rnb = p.rbx * ny - p.rby * nx;
+  double kn = m + a.inv_inertia * rna * rna + b.inv_inertia * rnb * rnb;
+  p.normal_mass = kn > 0.0 ? 1.0 / kn : 0.0;
+  double rta = p.rax * ty - p.ray * tx, rtb = p.rbx * ty - p.rby * tx;
+  double kt = m + a.inv_inertia * rta * rta + b.inv_inertia * rtb * rtb;
+  p.tangent_mass = kt > 0.0 ? 1.0 / kt : 0.0;
+  p.normal_impulse = r.warm_starting ? mp.normal_impulse : 0.0;
+  p.tangent_impulse = r.warm_starting ? mp.tangent_impulse : 0.0;
+  if (r.rescale) {
+    p.normal_impulse *= r.share;
+    p.tangent_impulse *= r.share;
+  }
+  p.max_normal_impulse = 0.0;
+  return p;
+}
+
+// Row k (contact s.contacts[k], its bodies in solver slots `slots`) for the rigid step: depends
+// only on its own contact and bodies. The extra's approach speeds only for a contact with
+// restitution (nothing else reads them).
 void prepare_row(const WorldImpl& w, const SolverScratch& s, const RowRule& r, size_t k,
                  const RowBodies& slots, ContactRow& row, ContactRowExtra& extra) {
   const Contact& c = w.contacts[s.contacts[k]];
@@ -286,29 +315,10 @@ void prepare_row(const WorldImpl& w, const SolverScratch& s, const RowRule& r, s
   const ScalarBody b = scalar_body(s, row.ib);
   row.softness = (a.inv_mass == 0.0 || b.inv_mass == 0.0) ? r.static_soft : r.soft;
   const double nx = row.nx, ny = row.ny;
-  const double tx = ny, ty = -nx;
   const double m = a.inv_mass + b.inv_mass;
   for (int i = 0; i < row.count; ++i) {
-    const ManifoldPoint& mp = c.manifold.points[i];
     ContactPointRow& p = row.points[i];
-    p.rax = mp.point.x() - centre_a.x();
-    p.ray = mp.point.y() - centre_a.y();
-    p.rbx = mp.point.x() - centre_b.x();
-    p.rby = mp.point.y() - centre_b.y();
-    p.base_separation = mp.separation - ((p.rbx - p.rax) * nx + (p.rby - p.ray) * ny);
-    double rna = p.rax * ny - p.ray * nx, rnb = p.rbx * ny - p.rby * nx;
-    double kn = m + a.inv_inertia * rna * rna + b.inv_inertia * rnb * rnb;
-    p.normal_mass = kn > 0.0 ? 1.0 / kn : 0.0;
-    double rta = p.rax * ty - p.ray * tx, rtb = p.rbx * ty - p.rby * tx;
-    double kt = m + a.inv_inertia * rta * rta + b.inv_inertia * rtb * rtb;
-    p.tangent_mass = kt > 0.0 ? 1.0 / kt : 0.0;
-    p.normal_impulse = r.warm_starting ? mp.normal_impulse : 0.0;
-    p.tangent_impulse = r.warm_starting ? mp.tangent_impulse : 0.0;
-    if (r.rescale) {
-      p.normal_impulse *= r.share;
-      p.tangent_impulse *= r.share;
-    }
-    p.max_normal_impulse = 0.0;
+    p = prepare_point(r, c.manifold.points[i], centre_a, centre_b, a, b, nx, ny);
     if (c.restitution != 0.0) extra.approach_speed[i] = normal_speed(a, b, p, nx, ny);
     extra.pseudo_impulse[i] = 0.0;
   }
@@ -355,6 +365,57 @@ void prepare(WorldImpl& w, SolverScratch& s, double h, WorkerPool* pool) {
   }
 }
 
+// Row k of the soft step straight into its lane (contact_lanes.h, laid out by colour_contacts):
+// the numbers prepare_row works out, and the lane's separations at the tick's start. A lane of
+// a one-point manifold has a second point that changes nothing.
+void prepare_lane(const WorldImpl& w, SolverScratch& s, const RowRule& r, size_t k,
+                  ColouredContacts* cc) {
+  const Contact& c = w.contacts[s.contacts[k]];
+  const RowBodies slots = s.row_bodies[k];
+  const Vec2 centre_a = centre_of(w, s, slots.ia, c.body_a);
+  const Vec2 centre_b = centre_of(w, s, slots.ib, c.body_b);
+  const ScalarBody a = scalar_body(s, slots.ia);
+  const ScalarBody b = scalar_body(s, slots.ib);
+  const int lane = cc->lane_of_row[k];
+  ContactBlock& block = cc->blocks[lane / kBlockLanes];
+  ContactBlockRest& rest = cc->rests[lane / kBlockLanes];
+  const int l = lane % kBlockLanes;
+  block.ia[l] = slots.ia;
+  block.ib[l] = slots.ib;
+  block.write_a[l] = a.inv_mass > 0.0;
+  block.write_b[l] = b.inv_mass > 0.0;
+  block.inv_inertia_a[l] = a.inv_inertia;
+  block.inv_inertia_b[l] = b.inv_inertia;
+  const double nx = c.manifold.normal.x(), ny = c.manifold.normal.y();
+  block.nx[l] = nx;
+  block.ny[l] = ny;
+  block.friction[l] = c.friction;
+  const int count = c.manifold.count;
+  s.row_points[k] = static_cast<uint8_t>(count);
+  for (int i = 0; i < 2; ++i) {
+    if (i >= count) {
+      clear_lane_point(&block, &rest, i, l);
+      continue;
+    }
+    const ContactPointRow p =
+        prepare_point(r, c.manifold.points[i], centre_a, centre_b, a, b, nx, ny);
+    LanePoint& q = block.points[i];
+    LanePointRest& qr = rest.points[i];
+    q.rax[l] = p.rax;
+    q.ray[l] = p.ray;
+    q.rbx[l] = p.rbx;
+    q.rby[l] = p.rby;
+    qr.base_separation[l] = p.base_separation;
+    q.normal_mass[l] = p.normal_mass;
+    q.tangent_mass[l] = p.tangent_mass;
+    q.normal_impulse[l] = p.normal_impulse;
+    q.tangent_impulse[l] = p.tangent_impulse;
+    qr.max_normal_impulse[l] = p.max_normal_impulse;
+    qr.approach_speed[l] = c.restitution != 0.0 ? normal_speed(a, b, p, nx, ny) : 0.0;
+  }
+  refresh_lane_separation(s.bodies.data(), &block, &rest, l);
+}
+
 // Soft contacts: each row is prepared where it is used, straight into its lane
 // (contact_lanes.h), restitution's approach speeds included. Coloured in id order first, from
 // the rows' bodies.
@@ -384,14 +445,7 @@ void prepare_coloured(WorldImpl& w, SolverScratch& s, double h, ColouredContacts
                           cc->bounce_blocks.end());
   const RowRule r = row_rule(w, h);
   for_chunks(pool, n_rows, 256, [&](size_t lo, size_t hi) {
-    ContactRow row;
-    ContactRowExtra extra;
-    for (size_t k = lo; k < hi; ++k) {
-      prepare_row(w, s, r, k, s.row_bodies[k], row, extra);
-      s.row_points[k] = static_cast<uint8_t>(row.count);
-      const double* approach = s.row_restitution[k] != 0.0 ? extra.approach_speed : nullptr;
-      pack_row(s.bodies.data(), s.body_extras.data(), row, approach, k, cc);
-    }
+    for (size_t k = lo; k < hi; ++k) prepare_lane(w, s, r, k, cc);
   });
 }
 
