@@ -581,11 +581,13 @@ double solve_blocks_as(ContactBlock* blocks, int first, int end, SolverBody* bod
     // block's bodies' velocity rows.
     if (k + 3 < end) {
       const char* far = reinterpret_cast<const char*>(&blocks[k + 3]);
+#pragma GCC unroll 32
       for (size_t line = 0; line < sizeof(ContactBlock); line += 64) {
         __builtin_prefetch(far + line);
       }
       if (kRefresh || rule.track_max) {
         const char* rest = reinterpret_cast<const char*>(&rule.rests[k + 3]);
+#pragma GCC unroll 32
         for (size_t line = 0; line < sizeof(ContactBlockRest); line += 64) {
           __builtin_prefetch(rest + line);
         }
@@ -593,6 +595,7 @@ double solve_blocks_as(ContactBlock* blocks, int first, int end, SolverBody* bod
     }
     if (k + 1 < end) {
       const ContactBlock& next = blocks[k + 1];
+#pragma GCC unroll 8
       for (int l = 0; l < kBlockLanes; ++l) {
         __builtin_prefetch(&bodies[next.ia[l]]);
         __builtin_prefetch(&bodies[next.ib[l]]);
@@ -645,6 +648,7 @@ void warm_blocks(ContactBlock* blocks, int first, int end, SolverBody* bodies) {
   for (int k = first; k < end; ++k) {
     if (k + 3 < end) {
       const char* far = reinterpret_cast<const char*>(&blocks[k + 3]);
+#pragma GCC unroll 32
       for (size_t line = 0; line < offsetof(ContactBlock, points); line += 64) {
         __builtin_prefetch(far + line);
       }

@@ -128,6 +128,7 @@ FULCRUM_LANE_INLINE void fetch_ahead(const PointBlock* blocks, int k, int end,
                                      const SolverBody* bodies) {
   if (k + 2 < end) {
     const char* far = reinterpret_cast<const char*>(&blocks[k + 2]);
+#pragma GCC unroll 32
     for (size_t line = 0; line < sizeof(PointBlock); line += 64) __builtin_prefetch(far + line);
   }
   if (k + 1 < end) {
