@@ -234,7 +234,10 @@ struct PolygonView {
 // is positive, and then it is a lower bound on their distance.
 // Once a face separates the polygons by more than `limit` the caller has its answer (some value
 // above the limit: no points), so the other faces are not looked at.
-double max_separation(const PolygonView& p1, const PolygonView& p2, double limit, int* face) {
+// kVertices: p2's vertex count known at compile time (the loop over them unrolled), or 0.
+template <int kVertices>
+double max_separation_as(const PolygonView& p1, const PolygonView& p2, double limit, int* face) {
+  const int count = kVertices > 0 ? kVertices : p2.count;
   int best_face = 0;
   double best = -DBL_MAX;
   for (int i = 0; i < p1.count; ++i) {
@@ -245,7 +248,8 @@ double max_separation(const PolygonView& p1, const PolygonView& p2, double limit
     const double vx = p1.vertices[i].x();
     const double vy = p1.vertices[i].y();
     double s = DBL_MAX;
-    for (int j = 0; j < p2.count; ++j) {
+#pragma GCC unroll 8
+    for (int j = 0; j < count; ++j) {
       s = std::min(s, nx * (p2.vertices[j].x() - vx) + ny * (p2.vertices[j].y() - vy));
     }
     if (s > best) {
@@ -256,6 +260,12 @@ double max_separation(const PolygonView& p1, const PolygonView& p2, double limit
   }
   *face = best_face;
   return best;
+}
+
+// Boxes, the common case, take the unrolled loop: the same operations in the same order.
+double max_separation(const PolygonView& p1, const PolygonView& p2, double limit, int* face) {
+  return p2.count == 4 ? max_separation_as<4>(p1, p2, limit, face)
+                       : max_separation_as<0>(p1, p2, limit, face);
 }
 
 // The general routine: the core separation from SAT picks a reference face (and the most
