@@ -136,6 +136,7 @@ struct Lane<F64x4> {
   static FULCRUM_LANE_INLINE void store_rows(const F64x4 in[4], double* const* rows) {
     F64x4 out[4];
     transpose4(in[0], in[1], in[2], in[3], out);
+#pragma GCC unroll 4
     for (int l = 0; l < 4; ++l) store(rows[l], out[l]);
   }
 };
@@ -220,6 +221,7 @@ struct Lane<LanePair<H>> {
     H lo[4], hi[4];
     Half::load_rows(rows, lo);
     Half::load_rows(rows + Half::kCount, hi);
+#pragma GCC unroll 4
     for (int j = 0; j < 4; ++j) out[j] = {lo[j], hi[j]};
   }
   static FULCRUM_LANE_INLINE void store_rows(const V in[4], double* const* rows) {
@@ -282,6 +284,7 @@ struct LaneBodies {
   FULCRUM_LANE_INLINE LaneBodies(const Block& k, int l0, const SolverBody* bodies) {
     const double* ra[kCount];
     const double* rb[kCount];
+#pragma GCC unroll 16
     for (int l = 0; l < kCount; ++l) {
       ra[l] = velocity_row(bodies[k.ia[l0 + l]]);
       rb[l] = velocity_row(bodies[k.ib[l0 + l]]);
@@ -300,6 +303,7 @@ struct LaneBodies {
     double* ra[kCount];
     double* rb[kCount];
     alignas(32) double sink[2 * kCount][4];
+#pragma GCC unroll 16
     for (int l = 0; l < kCount; ++l) {
       ra[l] = k.write_a[l0 + l] ? velocity_row(bodies[k.ia[l0 + l]]) : sink[2 * l];
       rb[l] = k.write_b[l0 + l] ? velocity_row(bodies[k.ib[l0 + l]]) : sink[2 * l + 1];
@@ -330,6 +334,7 @@ FULCRUM_LANE_INLINE void warm_lanes(ContactBlock& k, int l0, SolverBody* bodies)
   const V ima = v.ima_row, iia = L::load(k.inv_inertia_a + l0);
   const V imb = v.imb_row, iib = L::load(k.inv_inertia_b + l0);
   const V nx = L::load(k.nx + l0), ny = L::load(k.ny + l0);
+#pragma GCC unroll 2
   for (const LanePoint& p : k.points) {
     V ni = L::load(p.normal_impulse + l0), ti = L::load(p.tangent_impulse + l0);
     V px = ni * nx + ti * ny;
@@ -348,6 +353,7 @@ FULCRUM_LANE_INLINE void load_motion_rows(const Block& k, int l0, const SolverBo
   using L = Lane<V>;
   const double* ra[L::kCount];
   const double* rb[L::kCount];
+#pragma GCC unroll 16
   for (int l = 0; l < L::kCount; ++l) {
     ra[l] = motion_row(bodies[k.ia[l0 + l]]);
     rb[l] = motion_row(bodies[k.ib[l0 + l]]);
@@ -366,6 +372,7 @@ FULCRUM_LANE_INLINE void separation_lanes(ContactBlock& k, const ContactBlockRes
   const V ddx = b[0] - a[0], ddy = b[1] - a[1];
   const V qca = a[2], qsa = a[3], qcb = b[2], qsb = b[3];
   const V nx = L::load(k.nx + l0), ny = L::load(k.ny + l0);
+#pragma GCC unroll 2
   for (int i = 0; i < 2; ++i) {
     LanePoint& p = k.points[i];
     const V rax = L::load(p.rax + l0), ray = L::load(p.ray + l0);
@@ -388,6 +395,7 @@ FULCRUM_LANE_INLINE void approach_lanes(const ContactBlock& k, ContactBlockRest&
   const LaneBodies<V> v(k, l0, bodies);
   const double* ra[L::kCount];
   const double* rb[L::kCount];
+#pragma GCC unroll 16
   for (int l = 0; l < L::kCount; ++l) {
     ra[l] = &before[k.ia[l0 + l]].vx;
     rb[l] = &before[k.ib[l0 + l]].vx;
@@ -397,6 +405,7 @@ FULCRUM_LANE_INLINE void approach_lanes(const ContactBlock& k, ContactBlockRest&
   L::load_rows(rb, b0);
   const V zero = L::splat(0.0), two = L::splat(2.0);
   const V nx = L::load(k.nx + l0), ny = L::load(k.ny + l0);
+#pragma GCC unroll 2
   for (int i = 0; i < 2; ++i) {
     const LanePoint& p = k.points[i];
     const V rax = L::load(p.rax + l0), ray = L::load(p.ray + l0);
@@ -438,6 +447,7 @@ FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, ContactBlockRest& rest, int l
   const V soft_impulse_scale = lane_select(fixed, L::splat(rule.static_soft.impulse_scale),
                                            L::splat(rule.soft.impulse_scale));
   V largest = zero;
+#pragma GCC unroll 2
   for (int i = 0; i < 2; ++i) {
     LanePoint& p = k.points[i];
     const V rax = L::load(p.rax + l0), ray = L::load(p.ray + l0);
@@ -474,6 +484,7 @@ FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, ContactBlockRest& rest, int l
   // Friction along t = (ny, -nx), bounded by the normal impulses just found.
   const V tx = ny, ty = -nx;
   const V friction = L::load(k.friction + l0);
+#pragma GCC unroll 2
   for (LanePoint& p : k.points) {
     const V rax = L::load(p.rax + l0), ray = L::load(p.ray + l0);
     const V rbx = L::load(p.rbx + l0), rby = L::load(p.rby + l0);
@@ -504,6 +515,7 @@ FULCRUM_LANE_INLINE void integrate_lanes(SolverBody* bodies, SolverBodyExtra* ex
   using L = Lane<V>;
   double* rows[L::kCount];
   double* motion[L::kCount];
+#pragma GCC unroll 16
   for (int l = 0; l < L::kCount; ++l) {
     rows[l] = velocity_row(bodies[l]);
     motion[l] = rows[l] + 4;
@@ -525,6 +537,7 @@ FULCRUM_LANE_INLINE void integrate_lanes(SolverBody* bodies, SolverBodyExtra* ex
   m[1] += h * v[1];
   const V turn = h * v[2];
   bool in_kernel = true;
+#pragma GCC unroll 16
   for (int l = 0; l < L::kCount; ++l) {
     if (extras != nullptr) extras[l].da += L::get(turn, l);
     in_kernel = in_kernel && std::fabs(L::get(turn, l)) <= kPio4;
@@ -652,6 +665,7 @@ void warm_blocks(ContactBlock* blocks, int first, int end, SolverBody* bodies) {
       for (size_t line = 0; line < offsetof(ContactBlock, points); line += 64) {
         __builtin_prefetch(far + line);
       }
+#pragma GCC unroll 2
       for (const LanePoint& p : blocks[k + 3].points) {
         __builtin_prefetch(p.rax);
         __builtin_prefetch(p.ray);

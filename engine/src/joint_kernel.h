@@ -133,6 +133,7 @@ FULCRUM_LANE_INLINE void fetch_ahead(const PointBlock* blocks, int k, int end,
   }
   if (k + 1 < end) {
     const PointBlock& next = blocks[k + 1];
+#pragma GCC unroll 8
     for (int l = 0; l < kBlockLanes; ++l) {
       __builtin_prefetch(&bodies[next.ia[l]]);
       __builtin_prefetch(&bodies[next.ib[l]]);
