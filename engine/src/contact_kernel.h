@@ -168,6 +168,10 @@ FULCRUM_LANE_INLINE LanePair<H> operator*(LanePair<H> a, LanePair<H> b) {
   return {a.lo * b.lo, a.hi * b.hi};
 }
 template <class H>
+FULCRUM_LANE_INLINE LanePair<H> operator/(LanePair<H> a, LanePair<H> b) {
+  return {a.lo / b.lo, a.hi / b.hi};
+}
+template <class H>
 FULCRUM_LANE_INLINE LanePair<H> operator-(LanePair<H> a) {
   return {-a.lo, -a.hi};
 }
@@ -190,6 +194,27 @@ FULCRUM_LANE_INLINE auto operator>(LanePair<H> a, LanePair<H> b) {
 template <class H>
 FULCRUM_LANE_INLINE auto operator==(LanePair<H> a, LanePair<H> b) {
   return MaskPair<decltype(a.lo == b.lo)>{a.lo == b.lo, a.hi == b.hi};
+}
+template <class H>
+FULCRUM_LANE_INLINE auto operator!=(LanePair<H> a, LanePair<H> b) {
+  return MaskPair<decltype(a.lo != b.lo)>{a.lo != b.lo, a.hi != b.hi};
+}
+// A number with each lane, as the vector types take it (trig_kernel.h's polynomials).
+template <class H>
+FULCRUM_LANE_INLINE LanePair<H> operator+(double a, LanePair<H> b) {
+  return {a + b.lo, a + b.hi};
+}
+template <class H>
+FULCRUM_LANE_INLINE LanePair<H> operator-(double a, LanePair<H> b) {
+  return {a - b.lo, a - b.hi};
+}
+template <class H>
+FULCRUM_LANE_INLINE LanePair<H> operator*(double a, LanePair<H> b) {
+  return {a * b.lo, a * b.hi};
+}
+template <class H>
+FULCRUM_LANE_INLINE LanePair<H> operator*(LanePair<H> a, double b) {
+  return {a.lo * b, a.hi * b};
 }
 template <class M>
 FULCRUM_LANE_INLINE MaskPair<M> operator|(MaskPair<M> a, MaskPair<M> b) {
