@@ -8,6 +8,10 @@
 // Included by contact_kernel.cpp (scalar and 2 lanes, the target's baseline: SSE2 or NEON)
 // and contact_kernel_x4.cpp (4 lanes, built for AVX2 on x86-64). Everything here has internal
 // linkage, so that the two files' copies, built for different instruction sets, never merge.
+//
+// Loops of a fixed count (lanes, rows, points, lines fetched ahead) carry `#pragma GCC unroll`
+// (clang takes it too): GCC 12 at -O2 keeps them as loops, and with them their arrays of row
+// pointers and rows on the stack instead of in registers (docs/performance.md, "Lanes").
 #pragma once
 
 #include <cmath>
