@@ -223,14 +223,19 @@ bool WorldImpl::join_moves(int64_t room, std::atomic<int64_t>& found) {
   for (int si : move_buffer) {
     if (shapes[si].filter.group_index > 0) return false;
   }
-  // Which leaves moved, by proxy, in each tree.
+  // Which leaves moved, by proxy, in each tree, and which nodes have one below them: the walks
+  // skip subtrees where nothing moved (a pile asleep beside a rain of bodies).
   std::vector<uint8_t>& moved_leaf = scratch_moved_leaf;
   std::vector<uint8_t>& moved_static_leaf = scratch_moved_static_leaf;
   moved_leaf.assign(tree.node_capacity(), 0);
   moved_static_leaf.assign(static_tree.node_capacity(), 0);
   for (int si : move_buffer) {
     const Shape& s = shapes[si];
-    (&tree_of(s) == &tree ? moved_leaf : moved_static_leaf)[s.proxy] = 1;
+    if (&tree_of(s) == &tree) {
+      tree.mark_with_ancestors(s.proxy, moved_leaf.data());
+    } else {
+      static_tree.mark_with_ancestors(s.proxy, moved_static_leaf.data());
+    }
   }
   // The moving tree with itself, then with the static tree; each task keeps its own list.
   constexpr int kTasks = 16;
@@ -247,8 +252,7 @@ bool WorldImpl::join_moves(int64_t room, std::atomic<int64_t>& found) {
     // The walk meets each pair once: none is skipped.
     PairBatch batch(*this, room, found, &out, [](int, int) { return false; });
     const DynamicTree::JoinTask t = is_self ? self[i] : cross[i - self.size()];
-    tree.join(other, t, [&](int a, int b) {
-      if (!moved_leaf[a] && !other_moved[b]) return true;
+    tree.join(other, t, moved_leaf.data(), other_moved.data(), [&](int a, int b) {
       return batch.add(static_cast<int>(tree.user_data(a)), static_cast<int>(other.user_data(b)));
     });
     batch.flush();

@@ -259,11 +259,6 @@ void clear_lane_point(ContactBlock* block, ContactBlockRest* rest, int point, in
   clear_point(&block->points[point], &rest->points[point], lane);
 }
 
-void refresh_lane_separation(const SolverBody* bodies, ContactBlock* block,
-                             const ContactBlockRest* rest, int lane) {
-  separation_lanes<double>(*block, *rest, lane, bodies);
-}
-
 // --- Passes ----------------------------------------------------------------------------------
 
 namespace {
@@ -355,6 +350,27 @@ void update_separations(ColouredContacts& cc, const SolverBody* bodies, WorkerPo
   auto chunk = [&](int i) {
     const int b = i * kBlocksPerChunk;
     fns.separation(blocks, cc.rests.data(), b, std::min(b + kBlocksPerChunk, end), bodies);
+  };
+  pool->run(chunks, chunk);
+}
+
+void bounce_separations(ColouredContacts& cc, const SolverBody* bodies, WorkerPool* pool) {
+  const PathFns fns = path_fns();
+  ContactBlock* blocks = cc.blocks.data();
+  const std::vector<int>& which = cc.bounce_blocks;
+  auto range = [&](size_t lo, size_t hi) {
+    for (size_t j = lo; j < hi; ++j) {
+      fns.separation(blocks, cc.rests.data(), which[j], which[j] + 1, bodies);
+    }
+  };
+  const int chunks = chunk_count(0, static_cast<int>(which.size()));
+  if (pool == nullptr || chunks < 2) {
+    range(0, which.size());
+    return;
+  }
+  auto chunk = [&](int i) {
+    const size_t lo = static_cast<size_t>(i) * kBlocksPerChunk;
+    range(lo, std::min(lo + kBlocksPerChunk, which.size()));
   };
   pool->run(chunks, chunk);
 }

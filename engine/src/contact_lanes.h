@@ -141,9 +141,6 @@ void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<Solve
 // Point `point` of a lane whose manifold has fewer points: zero masses and impulses, so that it
 // changes nothing.
 void clear_lane_point(ContactBlock* block, ContactBlockRest* rest, int point, int lane);
-// A written lane's separations from the bodies' motion, as update_separations computes them.
-void refresh_lane_separation(const SolverBody* bodies, ContactBlock* block,
-                             const ContactBlockRest* rest, int lane);
 
 // Lanes [first, first + count) of blocks, for each path. Each returns the largest corrective
 // impulse (0 unless the rule asks for it). Declared per path so that the 4-lane path can live in a
@@ -197,6 +194,10 @@ inline constexpr int kBlocksPerChunk = 4;
 // The current separation of every lane's points, from the bodies' motion since the tick began;
 // needed after a position update that no relax pass follows (LaneRule::refresh_separation).
 void update_separations(ColouredContacts& cc, const SolverBody* bodies, WorkerPool* pool);
+
+// The separations of the bounce blocks' lanes (what update_separations gives for all): at the
+// tick's start, restitution reads them before the first pass works out the others.
+void bounce_separations(ColouredContacts& cc, const SolverBody* bodies, WorkerPool* pool);
 
 // Restitution's speeds of approach (contact_solver.cpp, track_approach), for the lanes of the
 // bounce blocks: each point's normal speed now and before the substep's forces (`before`, per

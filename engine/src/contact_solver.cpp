@@ -366,8 +366,9 @@ void prepare(WorldImpl& w, SolverScratch& s, double h, WorkerPool* pool) {
 }
 
 // Row k of the soft step straight into its lane (contact_lanes.h, laid out by colour_contacts):
-// the numbers prepare_row works out, and the lane's separations at the tick's start. A lane of
-// a one-point manifold has a second point that changes nothing.
+// the numbers prepare_row works out. The lanes' separations are left to the tick's first pass
+// (solve_group), which works them out eight at a time. A lane of a one-point manifold has a
+// second point that changes nothing.
 void prepare_lane(const WorldImpl& w, SolverScratch& s, const RowRule& r, size_t k,
                   ColouredContacts* cc) {
   const Contact& c = w.contacts[s.contacts[k]];
@@ -413,7 +414,6 @@ void prepare_lane(const WorldImpl& w, SolverScratch& s, const RowRule& r, size_t
     qr.max_normal_impulse[l] = p.max_normal_impulse;
     qr.approach_speed[l] = c.restitution != 0.0 ? normal_speed(a, b, p, nx, ny) : 0.0;
   }
-  refresh_lane_separation(s.bodies.data(), &block, &rest, l);
 }
 
 // Soft contacts: each row is prepared where it is used, straight into its lane
@@ -1001,6 +1001,11 @@ void WorldImpl::solve_group(const std::vector<int>& awake,
                     : solve_contacts(s, r);
   };
   if (!s.restitution_rows.empty()) s.velocity_before.resize(s.bodies.size());
+  // The lanes' separations at the tick's start: the first pass works them out as it goes, and
+  // restitution, which reads them before that pass, has its blocks' worked out here.
+  if (coloured && !s.restitution_rows.empty()) {
+    bounce_separations(coloured_contacts, s.bodies.data(), workers);
+  }
   for (int sub = 0; sub < set.substeps; ++sub) {
     if (!s.restitution_rows.empty()) {
       for_chunks(workers, s.bodies.size(), 1024,
@@ -1028,6 +1033,7 @@ void WorldImpl::solve_group(const std::vector<int>& awake,
     }
     for (int it = 0; it < set.velocity_iterations; ++it) {
       solve_joints(true, workers);
+      lane_solve.refresh_separation = sub == 0 && it == 0;
       if (contact_pass(rule, lane_solve) < set.early_exit_tolerance) break;
     }
     if (rule.rigid && rule.split) {

@@ -162,7 +162,7 @@ struct SolverScratch {
   std::vector<int> joints;           // awake joints, by id (after solve: every group's)
   std::vector<JointRow> joint_rows;  // constraints
   // Each joint row's slots and kind, written beside it: colour_points reads only these, 12
-  // bytes a row instead of a cache line of each 192-byte row.
+  // bytes a row instead of a cache line of each large row.
   struct RowSlots {
     int ia = 0, ib = 0;
     bool plain_point = false;

@@ -67,17 +67,24 @@ class DynamicTree {
   void ray_cast(const RayCastInput& input, Callback&& callback) const;
 
   // Every pair of overlapping leaves, one of this tree and one of `other` (or, with other being
-  // this tree, every unordered pair of two of its leaves), found by walking the two trees
-  // together: a subtree pair is entered only when the boxes overlap and the filter bits could
-  // pass both ways. When most leaves moved this costs far less than a query per leaf. The work
-  // is split into tasks (join_tasks: at least `want` where the trees allow), each walked by
-  // join(); report(leaf_of_this, leaf_of_other) returns false to stop that task.
+  // this tree, every unordered pair of two of its leaves), at least one of them marked, found by
+  // walking the two trees together: a subtree pair is entered only when the boxes overlap, the
+  // filter bits could pass both ways and one side holds a marked leaf. When most leaves moved
+  // this costs far less than a query per leaf. `marks` and `other_marks` are indexed by node
+  // (node_capacity() long), set for the marked leaves and their ancestors (mark_with_ancestors).
+  // The work is split into tasks (join_tasks: at least `want` where the trees allow), each
+  // walked by join(); report(leaf_of_this, leaf_of_other) returns false to stop that task.
   struct JoinTask {
     int a, b;  // a == b in a join of a tree with itself: the pairs within a's subtree
   };
   std::vector<JoinTask> join_tasks(const DynamicTree& other, int want) const;
   template <typename Report>
-  void join(const DynamicTree& other, JoinTask task, Report&& report) const;
+  void join(const DynamicTree& other, JoinTask task, const uint8_t* marks,
+            const uint8_t* other_marks, Report&& report) const;
+  // Marks `leaf` and its ancestors in `marks`, up to the first already marked.
+  void mark_with_ancestors(int leaf, uint8_t* marks) const {
+    for (int n = leaf; n != kNullNode && marks[n] == 0; n = nodes_[n].parent_or_next) marks[n] = 1;
+  }
 
   int height() const;
   int proxy_count() const { return proxy_count_; }
@@ -107,10 +114,17 @@ class DynamicTree {
     return (a.category_bits & b.mask_bits) != 0 && (b.category_bits & a.mask_bits) != 0 &&
            a.aabb.overlaps(b.aabb);
   }
+  // What one join() walks with: the two trees' marks and the report.
   template <typename Report>
-  bool join_pair(const DynamicTree& other, int a, int b, Report& report) const;
+  struct JoinWalk {
+    const uint8_t* marks;
+    const uint8_t* other_marks;
+    Report& report;
+  };
   template <typename Report>
-  bool join_self(int node, Report& report) const;
+  bool join_pair(const DynamicTree& other, int a, int b, JoinWalk<Report>& walk) const;
+  template <typename Report>
+  bool join_self(int node, JoinWalk<Report>& walk) const;
 
   template <bool kFiltered, typename Callback>
   void walk(const AABB& aabb, uint64_t category_bits, uint64_t mask_bits,

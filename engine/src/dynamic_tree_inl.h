@@ -82,32 +82,35 @@ void DynamicTree::walk(const AABB& aabb, uint64_t category_bits, uint64_t mask_b
 }
 
 template <typename Report>
-bool DynamicTree::join_pair(const DynamicTree& other, int a, int b, Report& report) const {
+bool DynamicTree::join_pair(const DynamicTree& other, int a, int b, JoinWalk<Report>& walk) const {
+  if (walk.marks[a] == 0 && walk.other_marks[b] == 0) return true;  // no marked leaf below
   const Node& na = nodes_[a];
   const Node& nb = other.nodes_[b];
   if (!may_pair(na, nb)) return true;
-  if (na.is_leaf() && nb.is_leaf()) return static_cast<bool>(report(a, b));
+  if (na.is_leaf() && nb.is_leaf()) return static_cast<bool>(walk.report(a, b));
   // The taller side is split (a tie splits this tree's side).
   if (nb.is_leaf() || (!na.is_leaf() && na.height >= nb.height)) {
-    return join_pair(other, na.child1, b, report) && join_pair(other, na.child2, b, report);
+    return join_pair(other, na.child1, b, walk) && join_pair(other, na.child2, b, walk);
   }
-  return join_pair(other, a, nb.child1, report) && join_pair(other, a, nb.child2, report);
+  return join_pair(other, a, nb.child1, walk) && join_pair(other, a, nb.child2, walk);
 }
 
 template <typename Report>
-bool DynamicTree::join_self(int node, Report& report) const {
+bool DynamicTree::join_self(int node, JoinWalk<Report>& walk) const {
   const Node& n = nodes_[node];
-  if (n.is_leaf()) return true;
-  return join_self(n.child1, report) && join_self(n.child2, report) &&
-         join_pair(*this, n.child1, n.child2, report);
+  if (n.is_leaf() || walk.marks[node] == 0) return true;
+  return join_self(n.child1, walk) && join_self(n.child2, walk) &&
+         join_pair(*this, n.child1, n.child2, walk);
 }
 
 template <typename Report>
-void DynamicTree::join(const DynamicTree& other, JoinTask task, Report&& report) const {
+void DynamicTree::join(const DynamicTree& other, JoinTask task, const uint8_t* marks,
+                       const uint8_t* other_marks, Report&& report) const {
+  JoinWalk<Report> walk{marks, other_marks, report};
   if (&other == this && task.a == task.b) {
-    join_self(task.a, report);
+    join_self(task.a, walk);
   } else {
-    join_pair(other, task.a, task.b, report);
+    join_pair(other, task.a, task.b, walk);
   }
 }
 

@@ -211,9 +211,16 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     }
     const Body& ba = bodies[j.body_a];
     const Body& bb = bodies[j.body_b];
-    r = JointRow{};
+    // A plain pin (solved in lanes) has no angle row: it needs no springs and no joint angle
+    // (which skips the arctangent), and its row reads nothing past the joint's first two
+    // cache lines. Its row is written up to `soft` only (JointRow); any other row in full.
+    const bool plain = j.type == JointType::kRevolute && !j.enable_limit && !j.enable_motor &&
+                       !j.enable_spring && j.spring_impulse == 0.0 && j.motor_impulse == 0.0 &&
+                       j.lower_impulse == 0.0 && j.upper_impulse == 0.0;
+    if (!plain) r = JointRow{};
     r.joint = s.joints[k];
     r.type = j.type;
+    r.plain_point = plain;
     r.ia = ba.awake ? s.body_slot[j.body_a] : 0;
     r.ib = bb.awake ? s.body_slot[j.body_b] : 0;
     Vec2 ra = ba.xf.q.rotate(j.local_a - ba.local_center);
@@ -225,17 +232,11 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     r.dcx = bb.center.x() - ba.center.x();
     r.dcy = bb.center.y() - ba.center.y();
     r.soft = soft;
-    // A plain pin (solved in lanes) has no angle row: it needs no springs and no joint angle
-    // (which skips the arctangent), and its row reads nothing past the joint's first two
-    // cache lines.
-    r.plain_point = j.type == JointType::kRevolute && !j.enable_limit && !j.enable_motor &&
-                    !j.enable_spring && j.spring_impulse == 0.0 && j.motor_impulse == 0.0 &&
-                    j.lower_impulse == 0.0 && j.upper_impulse == 0.0;
     if (j.type == JointType::kRevolute) {  // its point impulse, pin or not
       r.ix = j.linear_impulse.x();
       r.iy = j.linear_impulse.y();
     }
-    if (r.plain_point) return;
+    if (plain) return;
     r.spring = make_softness(j.hertz, j.damping_ratio, h);
     r.angular_spring = make_softness(j.angular_hertz, j.angular_damping_ratio, h);
     const ScalarBody a = scalar_body(s, r.ia);

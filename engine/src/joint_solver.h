@@ -26,26 +26,28 @@ struct RevoluteRow {
   double lower_impulse = 0.0, upper_impulse = 0.0;
 };
 
+// A plain pin's row (plain_point) is the fields up to `soft` alone: prepare_joints writes
+// only those, and nothing reads the rest of such a row (a joint grid's rows are mostly pins).
 struct JointRow {
   int joint = -1;
   int ia = 0, ib = 0;  // solver body slots (0: the shared static body)
   JointType type = JointType::kDistance;
-  double rax = 0.0, ray = 0.0;  // anchors relative to the centres of mass, tick start, world
-  double rbx = 0.0, rby = 0.0;
-  double dcx = 0.0, dcy = 0.0;        // centre of B minus centre of A, tick start
-  double angle = 0.0;                 // revolute, weld, prismatic: joint angle at tick start
-  double axis_x = 0.0, axis_y = 0.0;  // prismatic: slide axis, world, tick start
-  double axial_mass = 0.0;            // distance: along the axis; revolute: 1 / (iA + iB)
-  Softness soft;                      // position feedback
-  Softness spring;                    // the joint's own spring (weld: linear part)
-  Softness angular_spring;            // weld: angular part
   // A revolute joint that is only its point (no limit, motor or spring, and no impulse left
   // on those rows): solved in lanes (joint_lanes.h), which keep its point impulse for the tick
   // so that the passes never touch the large Joint record.
   bool plain_point = false;
+  double rax = 0.0, ray = 0.0;  // anchors relative to the centres of mass, tick start, world
+  double rbx = 0.0, rby = 0.0;
+  double dcx = 0.0, dcy = 0.0;  // centre of B minus centre of A, tick start
   // A revolute joint's accumulated point impulse: a plain point's at tick start; the other
   // revolute rows keep it (and `revolute`) up to date through the tick.
   double ix = 0.0, iy = 0.0;
+  Softness soft;                      // position feedback
+  double angle = 0.0;                 // revolute, weld, prismatic: joint angle at tick start
+  double axis_x = 0.0, axis_y = 0.0;  // prismatic: slide axis, world, tick start
+  double axial_mass = 0.0;            // distance: along the axis; revolute: 1 / (iA + iB)
+  Softness spring;                    // the joint's own spring (weld: linear part)
+  Softness angular_spring;            // weld: angular part
   RevoluteRow revolute;
 };
 

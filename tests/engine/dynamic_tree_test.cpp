@@ -8,6 +8,7 @@
 #include <iterator>
 #include <map>
 #include <random>
+#include <set>
 #include <utility>
 #include <vector>
 
@@ -415,8 +416,9 @@ TEST(DynamicTree, FilteredQueryIsTheQueryLessTheLeavesWhoseBitsFail) {
 }
 
 // join() over join_tasks() meets every overlapping pair of leaves whose bits pass both ways
-// exactly once: within one tree (unordered pairs of two leaves) and between two trees, with
-// one task or split into many, after inserts, a rebuild and moves.
+// and one of which is marked, exactly once: within one tree (unordered pairs of two leaves) and
+// between two trees, with one task or split into many, every leaf marked or a few, after
+// inserts, a rebuild and moves.
 TEST(DynamicTree, JoinFindsEachOverlappingPairOnce) {
   Rng rng(17);
   DynamicTree a, b;
@@ -435,25 +437,36 @@ TEST(DynamicTree, JoinFindsEachOverlappingPairOnce) {
     bits_b[b.create_proxy(random_box(rng), 0, bits.first, bits.second)] = bits;
   }
   using Pairs = std::vector<std::pair<int, int>>;
-  auto brute = [&](const DynamicTree& x, const auto& bx, const DynamicTree& y, const auto& by) {
+  // Each tree's marked leaves (by proxy), and the marks join() reads (leaves and ancestors).
+  std::set<int> marked_a, marked_b;
+  auto marks_of = [](const DynamicTree& x, const std::set<int>& leaves) {
+    std::vector<uint8_t> marks(x.node_capacity(), 0);
+    for (int leaf : leaves) x.mark_with_ancestors(leaf, marks.data());
+    return marks;
+  };
+  auto brute = [&](const DynamicTree& x, const auto& bx, const std::set<int>& mx,
+                   const DynamicTree& y, const auto& by, const std::set<int>& my) {
     Pairs want;
     for (const auto& [i, bi] : bx) {
       for (const auto& [j, bj] : by) {
         if (&x == &y && j <= i) continue;
+        if (!mx.count(i) && !my.count(j)) continue;
         if ((bi.first & bj.second) == 0 || (bj.first & bi.second) == 0) continue;
         if (x.fat_aabb(i).overlaps(y.fat_aabb(j))) want.emplace_back(i, j);
       }
     }
     return want;
   };
-  auto joined = [&](const DynamicTree& x, const DynamicTree& y, int want) {
+  auto joined = [&](const DynamicTree& x, const std::set<int>& mx, const DynamicTree& y,
+                    const std::set<int>& my, int want) {
     Pairs got;
     const std::vector<DynamicTree::JoinTask> tasks = x.join_tasks(y, want);
     if (want > 1) {
       EXPECT_GE(static_cast<int>(tasks.size()), want);
     }
+    const std::vector<uint8_t> marks_x = marks_of(x, mx), marks_y = marks_of(y, my);
     for (const DynamicTree::JoinTask& t : tasks) {
-      x.join(y, t, [&](int i, int j) {
+      x.join(y, t, marks_x.data(), marks_y.data(), [&](int i, int j) {
         got.emplace_back(&x == &y ? std::min(i, j) : i, &x == &y ? std::max(i, j) : j);
         return true;
       });
@@ -462,13 +475,34 @@ TEST(DynamicTree, JoinFindsEachOverlappingPairOnce) {
     return got;  // duplicates stay, and fail the comparison
   };
   auto check = [&] {
-    const Pairs self = brute(a, bits_a, a, bits_a);
-    const Pairs cross = brute(a, bits_a, b, bits_b);
-    EXPECT_GT(self.size(), 100u);
-    EXPECT_GT(cross.size(), 50u);
-    for (int want : {1, 16}) {
-      EXPECT_EQ(joined(a, a, want), self) << want << " tasks";
-      EXPECT_EQ(joined(a, b, want), cross) << want << " tasks";
+    // Every leaf marked, then about one in ten of each tree's (and none of b's).
+    for (int round = 0; round < 3; ++round) {
+      marked_a.clear();
+      marked_b.clear();
+      for (const auto& [id, bits] : bits_a) {
+        if (round == 0 || (round == 1 && rng.unit() < 0.1)) marked_a.insert(id);
+      }
+      for (const auto& [id, bits] : bits_b) {
+        if (round == 0 || (round == 2 && rng.unit() < 0.1)) marked_b.insert(id);
+      }
+      const Pairs self = brute(a, bits_a, marked_a, a, bits_a, marked_a);
+      const Pairs cross = brute(a, bits_a, marked_a, b, bits_b, marked_b);
+      if (round == 2) {
+        EXPECT_TRUE(self.empty());  // no leaf of a marked: no pair within a
+      } else {
+        EXPECT_GT(self.size(), 20u) << "round " << round;
+      }
+      EXPECT_GT(cross.size(), 10u) << "round " << round;
+      if (round == 0) {
+        EXPECT_GT(self.size(), 100u);
+        EXPECT_GT(cross.size(), 50u);
+      }
+      for (int want : {1, 16}) {
+        EXPECT_EQ(joined(a, marked_a, a, marked_a, want), self)
+            << want << " tasks, round " << round;
+        EXPECT_EQ(joined(a, marked_a, b, marked_b, want), cross)
+            << want << " tasks, round " << round;
+      }
     }
   };
   check();
@@ -481,7 +515,11 @@ TEST(DynamicTree, JoinFindsEachOverlappingPairOnce) {
   check();
   // A report returning false ends its task.
   int calls = 0;
-  a.join(a, a.join_tasks(a, 1)[0], [&](int, int) { return ++calls < 5; });
+  std::set<int> all;
+  for (const auto& [id, bits] : bits_a) all.insert(id);
+  const std::vector<uint8_t> marks = marks_of(a, all);
+  a.join(a, a.join_tasks(a, 1)[0], marks.data(), marks.data(),
+         [&](int, int) { return ++calls < 5; });
   EXPECT_EQ(calls, 5);
 }
 
