@@ -17,6 +17,8 @@ FULCRUM_PACKAGES=(
   libcpp-httplib-dev
   # clang's sanitizer and libFuzzer runtimes (tools/sanitize.sh, tools/fuzz.sh)
   libclang-rt-14-dev
+  # the linker of the sanitized builds (CMakeLists.txt)
+  lld
   openssl
   # The Python client (client/python) and its tests, for /usr/bin/python3; venv, setuptools
   # and wheel install it into a virtual environment without the network (tests/python).
