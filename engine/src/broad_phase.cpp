@@ -128,7 +128,7 @@ void WorldImpl::commit_moves() {
   if (pending_moves.size() >= threshold) {
     for (const auto& [proxy, box] : pending_moves) tree.set_leaf_box(proxy, box);
     constexpr double kRefitSlack = 1.25;
-    if (!(tree.refit_all() <= kRefitSlack * tree_built_cost)) {
+    if (!(tree.refit_all(pool) <= kRefitSlack * tree_built_cost)) {
       tree.rebuild(pool);
       tree_built_cost = tree.cost();
     }

@@ -66,6 +66,7 @@
 #include <optional>
 
 #include "union_find.h"
+#include "worker_pool.h"
 #include "world_impl.h"
 
 namespace fulcrum {
@@ -83,43 +84,81 @@ int substeps_for(const WorldSettings& s, double ratio) {
   return need >= s.max_substeps ? s.max_substeps : std::max(s.substeps, static_cast<int>(need));
 }
 
-// Calls fn(joint, k, other) for each live joint and each of its ends that is an awake dynamic
-// body: k that body's position in `awake` (w.solver_scratch.body_slot is set), other the body at
-// the joint's other end. Its callers keep maxima, flags and components, the same in any order:
-// with most bodies awake it walks the joint pool once, reading each joint once, and otherwise
-// the awake bodies' joint lists, where a joint between two awake bodies comes up from both.
-// The walk over the pool also lists the awake joints (those with an awake body at either end)
-// in id order for prepare_joints (WorldImpl::tick_joints), so that the tick walks the pool once.
-template <class Fn>
-void each_awake_joint_end(WorldImpl& w, const std::vector<int>& awake, Fn fn) {
+// Takes take(end_of(joint, k, other)) for each live joint and each of its ends that is an awake
+// dynamic body, in joint id order: k that body's position in `awake` (w.solver_scratch.body_slot
+// is set), other the body at the joint's other end. With most bodies awake it walks the joint
+// pool, reading each joint once, and otherwise the awake bodies' joint lists, where a joint
+// between two awake bodies comes up from both (take keeps maxima, flags and components, the same
+// in any order). The walk over the pool also lists the awake joints (those with an awake body at
+// either end) in id order for prepare_joints (WorldImpl::tick_joints), so that the tick walks
+// the pool once. With the world's threads it walks chunks of the pool at once, end_of running on
+// them, and takes the chunks' ends in chunk order: the same ends in the same order as one
+// thread's walk.
+template <class EndFn, class TakeFn>
+void each_awake_joint_end(WorldImpl& w, const std::vector<int>& awake, EndFn end_of, TakeFn take) {
   const std::vector<int>& slot = w.solver_scratch.body_slot;
-  if (2 * awake.size() >= static_cast<size_t>(w.body_count)) {
-    WorldImpl::TickJoints& listed = w.tick_joints;
-    listed.joints.clear();
-    listed.springs = 0;
-    for (size_t ji = 0; ji < w.joints.size(); ++ji) {
-      if (ji + kJointFetchAhead < w.joints.size()) fetch_joint(w.joints[ji + kJointFetchAhead]);
+  if (2 * awake.size() < static_cast<size_t>(w.body_count)) {
+    for (size_t k = 0; k < awake.size(); ++k) {
+      const int bi = awake[k];
+      if (!w.bodies[bi].is_dynamic()) continue;
+      for (int ji : w.bodies[bi].joints) {
+        const Joint& j = w.joints[ji];
+        take(end_of(j, static_cast<int>(k), j.body_a == bi ? j.body_b : j.body_a));
+      }
+    }
+    return;
+  }
+  WorldImpl::TickJoints& listed = w.tick_joints;
+  listed.joints.clear();
+  listed.springs = 0;
+  listed.stamp = w.step_stamp;
+  // Joints [lo, hi) of the pool: fn(ji) for each awake one, found(j, k, other) for its ends.
+  auto walk = [&](size_t lo, size_t hi, auto&& fn, auto&& found) {
+    for (size_t ji = lo; ji < hi; ++ji) {
+      if (ji + kJointFetchAhead < hi) fetch_joint(w.joints[ji + kJointFetchAhead]);
       const Joint& j = w.joints[ji];
       if (!j.alive) continue;
       const Body& a = w.bodies[j.body_a];
       const Body& b = w.bodies[j.body_b];
-      if (a.awake || b.awake) {
-        listed.joints.push_back(static_cast<int>(ji));
-        listed.springs += j.type == JointType::kSpring;
-      }
-      if (a.awake && a.is_dynamic()) fn(j, slot[j.body_a] - 1, j.body_b);
-      if (b.awake && b.is_dynamic()) fn(j, slot[j.body_b] - 1, j.body_a);
+      if (a.awake || b.awake) fn(j, ji);
+      if (a.awake && a.is_dynamic()) found(j, slot[j.body_a] - 1, j.body_b);
+      if (b.awake && b.is_dynamic()) found(j, slot[j.body_b] - 1, j.body_a);
     }
-    listed.stamp = w.step_stamp;
+  };
+  constexpr size_t kJointsPerWalk = 1024;
+  const size_t n = w.joints.size();
+  const int chunks = static_cast<int>((n + kJointsPerWalk - 1) / kJointsPerWalk);
+  if (w.pool == nullptr || chunks < 2) {
+    walk(
+        0, n,
+        [&](const Joint& j, size_t ji) {
+          listed.joints.push_back(static_cast<int>(ji));
+          listed.springs += j.type == JointType::kSpring;
+        },
+        [&](const Joint& j, int k, int other) { take(end_of(j, k, other)); });
     return;
   }
-  for (size_t k = 0; k < awake.size(); ++k) {
-    const int bi = awake[k];
-    if (!w.bodies[bi].is_dynamic()) continue;
-    for (int ji : w.bodies[bi].joints) {
-      const Joint& j = w.joints[ji];
-      fn(j, static_cast<int>(k), j.body_a == bi ? j.body_b : j.body_a);
-    }
+  std::vector<WorldImpl::JointWalkChunk>& out = w.scratch_joint_walk;
+  if (out.size() < static_cast<size_t>(chunks)) out.resize(chunks);
+  auto chunk = [&](int c) {
+    WorldImpl::JointWalkChunk& mine = out[c];
+    mine.joints.clear();
+    mine.springs = 0;
+    mine.ends.clear();
+    const size_t lo = static_cast<size_t>(c) * kJointsPerWalk;
+    walk(
+        lo, std::min(lo + kJointsPerWalk, n),
+        [&](const Joint& j, size_t ji) {
+          mine.joints.push_back(static_cast<int>(ji));
+          mine.springs += j.type == JointType::kSpring;
+        },
+        [&](const Joint& j, int k, int other) { mine.ends.push_back(end_of(j, k, other)); });
+  };
+  run_chunks(w.pool, chunks, chunk, true);
+  for (int c = 0; c < chunks; ++c) {
+    listed.joints.insert(listed.joints.end(), out[c].joints.begin(), out[c].joints.end());
+    listed.springs += out[c].springs;
+    for (const WorldImpl::JointEnd& e : out[c].ends) take(e);
   }
 }
 
@@ -269,14 +308,24 @@ bool WorldImpl::plan_joint_needs(const std::vector<int>& awake, double g) {
   // when both are awake and dynamic. Any joint: whether it holds its body to a moving
   // kinematic body or drives it against a body of infinite mass (for plan_budgets, in this
   // walk over the joints so that a tick makes one).
-  each_awake_joint_end(*this, awake, [&](const Joint& j, int k, int other) {
+  auto end_of = [&](const Joint& j, int k, int other) {
     const Body& o = bodies[other];
     const bool driven = j.enable_motor || j.type == JointType::kMotor;
-    if (!o.is_dynamic() && (o.awake || driven)) held[k] = 1;
-    if (j.type == JointType::kSpring) return;
+    JointEnd e;
+    e.k = k;
+    e.held = !o.is_dynamic() && (o.awake || driven);
+    e.spring = j.type == JointType::kSpring;
+    if (e.spring) return e;
+    e.weakest = bodies[awake[k]].inv_mass + o.inv_mass;
+    if (o.is_dynamic() && o.awake) e.partner = slot[other] - 1;
+    return e;
+  };
+  each_awake_joint_end(*this, awake, end_of, [&](const JointEnd& e) {
+    if (e.held) held[e.k] = 1;
+    if (e.spring) return;
     any = true;
-    weakest[k] = std::max(weakest[k], bodies[awake[k]].inv_mass + o.inv_mass);
-    if (o.is_dynamic() && o.awake) unite(parent, k, slot[other] - 1);
+    weakest[e.k] = std::max(weakest[e.k], e.weakest);
+    if (e.partner >= 0) unite(parent, e.k, e.partner);
   });
   if (!any || g == 0.0) return false;
   mass.assign(n, 0.0);

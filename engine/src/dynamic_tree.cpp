@@ -471,10 +471,42 @@ double cost_of(double internal, double leaves) {
 
 }  // namespace
 
-double DynamicTree::refit_all() {
+double DynamicTree::refit_all(WorkerPool* pool) {
   if (root_ == kNullNode) return 0.0;
+  // The nodes down to kSplitDepth (in pre-order) and the subtrees below them (in the same
+  // walk's order): the split depends on the tree alone, so the sums are added in one order
+  // whatever the thread count.
+  constexpr int kSplitDepth = 5;
+  std::vector<int>& tops = scratch_tops_;
+  std::vector<int>& subtrees = scratch_subtrees_;
+  tops.clear();
+  subtrees.clear();
+  auto split = [&](auto&& self, int index, int depth) -> void {
+    const Node& node = nodes_[index];
+    if (node.is_leaf() || depth == kSplitDepth) {
+      subtrees.push_back(index);
+      return;
+    }
+    tops.push_back(index);
+    self(self, node.child1, depth + 1);
+    self(self, node.child2, depth + 1);
+  };
+  split(split, root_, 0);
+  const int n = static_cast<int>(subtrees.size());
+  std::vector<double>& sums = scratch_sums_;
+  sums.assign(2 * static_cast<size_t>(n), 0.0);
+  auto chunk = [&](int i) { refit_subtree(subtrees[i], sums[2 * i], sums[2 * i + 1]); };
+  run_chunks(proxy_count_ >= 2048 ? pool : nullptr, n, chunk, true);
   double internal = 0.0, leaves = 0.0;
-  refit_subtree(root_, internal, leaves);
+  for (int i = 0; i < n; ++i) {
+    internal += sums[2 * i];
+    leaves += sums[2 * i + 1];
+  }
+  // The top nodes, children before parents.
+  for (auto it = tops.rbegin(); it != tops.rend(); ++it) {
+    refit(*it);
+    internal += nodes_[*it].aabb.perimeter();
+  }
   return cost_of(internal, leaves);
 }
 

@@ -37,7 +37,9 @@ class DynamicTree {
   void rebuild(WorkerPool* pool = nullptr);
   // After set_leaf_box calls, the cheaper alternative to rebuild(): every internal node's box
   // (and bits and height) refitted from its children, the structure kept. Returns cost().
-  double refit_all();
+  // The subtrees below the top levels are refitted one per chunk, on the pool's threads when
+  // there is one; the sums come out the same at any thread count.
+  double refit_all(WorkerPool* pool = nullptr);
   // The sum of the internal nodes' perimeters over the leaves': a query's walk grows with it.
   // Infinite when the leaves have no extent.
   double cost() const;
@@ -174,6 +176,9 @@ class DynamicTree {
   int proxy_count_ = 0;
   std::vector<LeafCentre> scratch_leaves_;  // rebuild
   std::vector<int> scratch_slots_;          // rebuild
+  std::vector<int> scratch_tops_;           // refit_all: the nodes above its subtrees
+  std::vector<int> scratch_subtrees_;       // refit_all
+  std::vector<double> scratch_sums_;        // refit_all: each subtree's two perimeter sums
 };
 
 }  // namespace fulcrum

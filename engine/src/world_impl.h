@@ -292,6 +292,23 @@ class WorldImpl {
     size_t springs = 0;
     uint32_t stamp = 0;
   } tick_joints;
+  // What plan_joint_needs takes from one end of a joint whose body there is awake and dynamic
+  // (its position k in the awake list), found by its walk over the joint pool.
+  struct JointEnd {
+    double weakest = 0.0;  // the two bodies' inverse masses summed (not read for a spring)
+    int k = 0;
+    int partner = -1;   // the other body's position in the awake list if awake and dynamic
+    bool held = false;  // held to a moving kinematic body, or driven against infinite mass
+    bool spring = false;
+  };
+  // With the world's threads that walk runs in chunks of joints, each listing its awake joints
+  // and their ends, taken in chunk order (budget.cpp).
+  struct JointWalkChunk {
+    std::vector<int> joints;
+    size_t springs = 0;
+    std::vector<JointEnd> ends;
+  };
+  std::vector<JointWalkChunk> scratch_joint_walk;
   struct BudgetGroup {
     int substeps = 0;
     int relax = 0;            // relax passes per substep

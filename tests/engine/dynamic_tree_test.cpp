@@ -351,6 +351,38 @@ TEST(DynamicTree, RebuildOnThreadsBuildsTheSameTree) {
   }
 }
 
+// A refit on two threads (the subtrees below the top levels refitted at once) fits every box as
+// one thread does and returns the same cost to the bit: the sums are added in an order fixed by
+// the tree. The tree is large enough (3000 leaves) for the pool to be used.
+TEST(DynamicTree, RefitOnThreadsGivesOneThreadsTreeAndCost) {
+  Rng rng(13);
+  DynamicTree one, two;
+  std::vector<AABB> boxes;
+  for (int i = 0; i < 3000; ++i) {
+    boxes.push_back(random_box(rng));
+    EXPECT_EQ(one.create_proxy(boxes.back(), i), two.create_proxy(boxes.back(), i));
+  }
+  one.rebuild();
+  two.rebuild();
+  for (int i = 0; i < 3000; ++i) {
+    const Vec2 delta(rng.uniform(-20.0, 20.0), rng.uniform(-20.0, 20.0));
+    boxes[i] = AABB{boxes[i].lower + delta, boxes[i].upper + delta};
+    one.set_leaf_box(i, boxes[i]);
+    two.set_leaf_box(i, boxes[i]);
+  }
+  WorkerPool pool(2);
+  const double cost_one = one.refit_all();
+  const double cost_two = two.refit_all(&pool);
+  EXPECT_EQ(cost_one, cost_two);
+  EXPECT_NEAR(cost_one, one.cost(), 1e-12 * cost_one);
+  ASSERT_TRUE(two.validate());  // every internal box holds its children's
+  EXPECT_EQ(one.height(), two.height());
+  for (int i = 0; i < 200; ++i) {
+    const AABB q = random_box(rng);
+    ASSERT_EQ(tree_query(one, q), tree_query(two, q));
+  }
+}
+
 // query_filtered reports exactly the leaves query reports whose bits pass against the query's
 // (both ways), through inserts with bits, filter changes, moves, destroys and a rebuild; every
 // node keeps the union of its leaves' bits (validate checks it).
