@@ -330,10 +330,9 @@ bool WorldImpl::plan_joint_needs(const std::vector<int>& awake, double g) {
   if (!any || g == 0.0) return false;
   mass.assign(n, 0.0);
   for (int k = 0; k < n; ++k) {
-    const Body& b = bodies[awake[k]];
-    if (!b.is_dynamic()) continue;
+    if (!budget.dynamic[k]) continue;
     const int r = find_root(parent, k);
-    mass[r] += b.mass;
+    mass[r] += budget.body_mass[k];
     if (r != k) weakest[r] = std::max(weakest[r], weakest[k]);
   }
   const double omega = 2.0 * 3.14159265358979323846 * settings.joint_hertz;
@@ -364,15 +363,27 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   std::vector<int>& slot = solver_scratch.body_slot;  // body -> 1 + position in `awake`
   if (slot.size() < bodies.size()) slot.resize(bodies.size(), 0);
   for (int k = 0; k < n; ++k) slot[awake[k]] = k + 1;
-  // Whether each awake body is dynamic, read once from the large body records.
+  // Whether each awake body is dynamic and holds a joint, and its mass, read once from the
+  // large body records (three of their cache lines), in chunks on the world's threads.
   std::vector<uint8_t>& dynamic = budget.dynamic;
+  std::vector<uint8_t>& jointed = budget.jointed;
+  std::vector<double>& body_mass = budget.body_mass;
   dynamic.resize(n);
+  jointed.resize(n);
+  body_mass.resize(n);
+  constexpr int kBodiesPerChunk = 1024;
+  const int chunks = (n + kBodiesPerChunk - 1) / kBodiesPerChunk;
+  auto read_bodies = [&](int c) {
+    for (int k = c * kBodiesPerChunk; k < std::min(n, (c + 1) * kBodiesPerChunk); ++k) {
+      const Body& b = bodies[awake[k]];
+      dynamic[k] = b.is_dynamic();
+      jointed[k] = !b.joints.empty();
+      body_mass[k] = b.mass;
+    }
+  };
+  run_chunks(chunks > 1 ? pool : nullptr, chunks, read_bodies, true);
   bool plain = true;
-  for (int k = 0; k < n; ++k) {
-    const Body& b = bodies[awake[k]];
-    dynamic[k] = b.is_dynamic();
-    plain = plain && dynamic[k] && b.joints.empty();
-  }
+  for (int k = 0; k < n && plain; ++k) plain = dynamic[k] && !jointed[k];
   budget.plain_bodies = plain;
   // A body's position in `awake` if it is there and dynamic; -1 otherwise.
   auto awake_dynamic = [&](int body) {
@@ -484,15 +495,13 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   if (contact_budgets) {
     weight.assign(n, 0.0);
     for (int k = 0; k < n; ++k) {
-      const Body& b = bodies[awake[k]];
-      if (b.is_dynamic()) weight[find_root(parent, k)] += g * b.mass;
+      if (dynamic[k]) weight[find_root(parent, k)] += g * body_mass[k];
     }
   }
   for (int k = 0; k < n; ++k) {
     const int r = find_root(parent, k);
-    const Body& b = bodies[awake[k]];
-    if (b.is_dynamic() && (!b.joints.empty() || pressed[k] > settings.one_pass_give_tolerance ||
-                           unsettled[k] || relax_need[k] > settings.relax_iterations)) {
+    if (dynamic[k] && (jointed[k] || pressed[k] > settings.one_pass_give_tolerance ||
+                       unsettled[k] || relax_need[k] > settings.relax_iterations)) {
       island_passes[r] = 1;
     }
     if (island_need[k] < 0 || island_need[r] < 0) {

@@ -330,6 +330,8 @@ class WorldImpl {
     bool unsettled = false;               // some contact_unsettled of this step is set
     std::vector<uint8_t> body_unsettled;  // per body: one of its touching contacts is unsettled
     std::vector<uint8_t> dynamic;         // per body: whether it is dynamic
+    std::vector<uint8_t> jointed;         // per body: whether it holds a joint
+    std::vector<double> body_mass;        // per body: its mass
     // Every awake body is dynamic and holds no joint (read with `dynamic`, for one_pass_tick;
     // false when plan_budgets stopped before reading them).
     bool plain_bodies = false;
