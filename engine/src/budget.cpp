@@ -85,11 +85,11 @@ int substeps_for(const WorldSettings& s, double ratio) {
 }
 
 // Takes take(end_of(joint, k, other)) for each live joint and each of its ends that is an awake
-// dynamic body, in joint id order: k that body's position in `awake` (w.solver_scratch.body_slot
-// is set), other the body at the joint's other end. With most bodies awake it walks the joint
-// pool, reading each joint once, and otherwise the awake bodies' joint lists, where a joint
-// between two awake bodies comes up from both (take keeps maxima, flags and components, the same
-// in any order). The walk over the pool also lists the awake joints (those with an awake body at
+// dynamic body: k that body's position in `awake` (w.solver_scratch.body_slot is set), other the
+// body at the joint's other end. With most bodies awake it walks the joint pool in id order,
+// reading each joint once, and otherwise the awake bodies' joint lists, where a joint between
+// two awake bodies comes up from both (take keeps maxima, flags and components, the same in any
+// order). The walk over the pool also lists the awake joints (those with an awake body at
 // either end) in id order for prepare_joints (WorldImpl::tick_joints), so that the tick walks
 // the pool once. With the world's threads it walks chunks of the pool at once, end_of running on
 // them, and takes the chunks' ends in chunk order: the same ends in the same order as one
