@@ -97,6 +97,7 @@ struct ColouredContacts {
   std::vector<int> lane_of_row;       // row -> block * kBlockLanes + lane
   std::vector<int> row_of_lane;       // block * kBlockLanes + lane -> row (-1: padding)
   std::vector<int> bounce_blocks;     // blocks holding a contact with restitution, ascending
+  std::vector<uint8_t> bounce_marks;  // scratch: per block, whether it is a bounce block
   std::vector<uint32_t> body_use;     // scratch: colours used per solver body
   std::vector<double> chunk_largest;  // scratch: each chunk's largest impulse
 };

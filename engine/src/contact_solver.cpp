@@ -437,12 +437,18 @@ void prepare_coloured(WorldImpl& w, SolverScratch& s, double h, ColouredContacts
     if (s.row_restitution[k] != 0.0) s.restitution_rows.push_back(static_cast<int>(k));
   }
   colour_contacts(s.row_bodies, s.bodies, cc);
-  // The blocks restitution's approach speeds are tracked in, ascending, each once.
+  // The blocks restitution's approach speeds are tracked in, ascending, each once: marked, then
+  // listed in block order (a scene of bouncy shapes has most of its rows here, too many to sort
+  // each tick).
   cc->bounce_blocks.clear();
-  for (int k : s.restitution_rows) cc->bounce_blocks.push_back(cc->lane_of_row[k] / kBlockLanes);
-  std::sort(cc->bounce_blocks.begin(), cc->bounce_blocks.end());
-  cc->bounce_blocks.erase(std::unique(cc->bounce_blocks.begin(), cc->bounce_blocks.end()),
-                          cc->bounce_blocks.end());
+  if (!s.restitution_rows.empty()) {
+    std::vector<uint8_t>& marks = cc->bounce_marks;
+    marks.assign(cc->blocks.size(), 0);
+    for (int k : s.restitution_rows) marks[cc->lane_of_row[k] / kBlockLanes] = 1;
+    for (size_t b = 0; b < marks.size(); ++b) {
+      if (marks[b]) cc->bounce_blocks.push_back(static_cast<int>(b));
+    }
+  }
   const RowRule r = row_rule(w, h);
   for_chunks(pool, n_rows, 256, [&](size_t lo, size_t hi) {
     for (size_t k = lo; k < hi; ++k) prepare_lane(w, s, r, k, cc);
