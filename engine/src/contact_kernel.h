@@ -261,6 +261,22 @@ struct Lane<LanePair<H>> {
   }
 };
 
+// Whether any lane of a comparison's result is true.
+FULCRUM_LANE_INLINE bool any_lane(bool m) {
+  return m;
+}
+template <class M>
+FULCRUM_LANE_INLINE bool any_lane(M m) {
+  auto any = m[0];
+#pragma GCC unroll 8
+  for (int l = 1; l < static_cast<int>(sizeof(M) / sizeof(m[0])); ++l) any |= m[l];
+  return any != 0;
+}
+template <class M>
+FULCRUM_LANE_INLINE bool any_lane(MaskPair<M> m) {
+  return any_lane(m.lo) || any_lane(m.hi);
+}
+
 // m ? a : b, and std::max's and std::clamp's definitions, lane by lane.
 template <class M, class V>
 FULCRUM_LANE_INLINE V lane_select(M m, V a, V b) {
@@ -552,12 +568,15 @@ FULCRUM_LANE_INLINE void integrate_lanes(SolverBody* bodies, SolverBodyExtra* ex
   V v[4], m[4];
   L::load_rows(rows, v);
   L::load_rows(motion, m);
-  // cap_speeds
+  // cap_speeds; its square root and division (the lanes' longest chain after the rotation's)
+  // only when a lane is that fast.
   const V speed2 = v[0] * v[0] + v[1] * v[1];
   const auto fast = speed2 > L::splat(rule.max_speed * rule.max_speed);
-  const V f = L::splat(rule.max_speed) / L::sqrt(speed2);
-  v[0] = lane_select(fast, v[0] * f, v[0]);
-  v[1] = lane_select(fast, v[1] * f, v[1]);
+  if (any_lane(fast)) {
+    const V f = L::splat(rule.max_speed) / L::sqrt(speed2);
+    v[0] = lane_select(fast, v[0] * f, v[0]);
+    v[1] = lane_select(fast, v[1] * f, v[1]);
+  }
   const V max_turn = L::splat(rule.max_turn);
   v[2] = lane_select(v[2] * v[2] > max_turn * max_turn,
                      lane_select(v[2] > L::splat(0.0), max_turn, -max_turn), v[2]);

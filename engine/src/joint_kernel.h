@@ -47,17 +47,6 @@ FULCRUM_LANE_INLINE void warm_point_lanes(PointBlock& k, int l0, SolverBody* bod
   v.store(k, l0, bodies);
 }
 
-FULCRUM_LANE_INLINE bool any_lane(bool m) {
-  return m;
-}
-template <class M>
-FULCRUM_LANE_INLINE bool any_lane(M m) {
-  for (int l = 0; l < static_cast<int>(sizeof(M) / sizeof(m[0])); ++l) {
-    if (m[l]) return true;
-  }
-  return false;
-}
-
 // solve_revolute_point, lane by lane. A lane whose K is singular (two immovable bodies, and
 // the padding lanes) changes nothing, as the scalar function returns early.
 template <class V>
