@@ -11,9 +11,10 @@
 
 namespace fulcrum::testing {
 
-// Block: ContactBlock or PointBlock (ia, ib, write_a, write_b per lane).
-template <class Block>
-void expect_each_body_written_once_per_colour(const std::vector<Block>& blocks,
+// Block: ContactBlock or PointBlock (ia, ib, write_a, write_b per lane), in a vector of any
+// allocator (the contact lanes' is LaneAllocator).
+template <class Block, class Allocator>
+void expect_each_body_written_once_per_colour(const std::vector<Block, Allocator>& blocks,
                                               const std::vector<int>& colour_start, int colours,
                                               const std::vector<SolverBody>& bodies) {
   for (int c = 0; c < colours; ++c) {
