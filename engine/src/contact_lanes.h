@@ -29,10 +29,12 @@ inline constexpr int kBlockLanes = 8;
 inline constexpr int kMaxColours = 24;
 
 // The allocator of the lanes' blocks: the elements a vector grows by are left as they come
-// (default-initialised; the blocks have no initialisers). Every lane is written in full each
-// time the blocks are laid out (prepare_lane, pad_colours), before any pass reads it, and a
-// tick whose islands are solved in several groups (budget.cpp) grows the blocks back after each
-// smaller group: zeroing them each time cost the spinner 1 % of its tick.
+// (default-initialised; the blocks have no initialisers). Each time the blocks are laid out,
+// every lane is written before any pass reads it: in full by prepare_lane (a row's) or
+// pad_colours (padding), but for a row's separations, which the tick's first pass works out
+// before it reads them (and bounce_separations before restitution does). A tick whose islands
+// are solved in several groups (budget.cpp) grows the blocks back after each smaller group:
+// zeroing them each time cost the spinner 1 % of its tick.
 template <class T>
 struct LaneAllocator : std::allocator<T> {
   LaneAllocator() = default;
