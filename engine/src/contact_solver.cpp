@@ -1091,7 +1091,7 @@ void WorldImpl::prepare_reference_tick() {
   load_bodies(*this, awake, false, s, nullptr);  // the reference solver moves no body
   s.contacts.assign(touching_contacts.begin(), touching_contacts.end());
   prepare(*this, s, h, nullptr);
-  prepare_joints(awake, h);
+  prepare_joints(awake, h, true);
   apply_spring_forces(h);
   s.drives.resize(awake.size());
   prepare_drives(*this, awake, s, h, 0, awake.size());

@@ -165,7 +165,19 @@ void WorldImpl::destroy_joint_at(int ji) {
 // Joint rows per chunk when prepare_joints shares them among threads.
 constexpr size_t kJointsPerChunk = 256;
 
-void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
+namespace {
+
+// A plain pin (solved in lanes, joint_lanes.h): a revolute joint with no limit, motor or spring
+// and no impulse left on those rows.
+bool plain_pin(const Joint& j) {
+  return j.type == JointType::kRevolute && !j.enable_limit && !j.enable_motor && !j.enable_spring &&
+         j.spring_impulse == 0.0 && j.motor_impulse == 0.0 && j.lower_impulse == 0.0 &&
+         j.upper_impulse == 0.0;
+}
+
+}  // namespace
+
+void WorldImpl::prepare_joints(const std::vector<int>& awake, double h, bool every_row) {
   SolverScratch& s = solver_scratch;
   // Awake joints in id order, each once (from its lower-indexed awake body).
   s.joints.clear();
@@ -214,9 +226,7 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
     // A plain pin (solved in lanes) has no angle row: it needs no springs and no joint angle
     // (which skips the arctangent), and its row reads nothing past the joint's first two
     // cache lines. Its row is written up to `soft` only (JointRow); any other row in full.
-    const bool plain = j.type == JointType::kRevolute && !j.enable_limit && !j.enable_motor &&
-                       !j.enable_spring && j.spring_impulse == 0.0 && j.motor_impulse == 0.0 &&
-                       j.lower_impulse == 0.0 && j.upper_impulse == 0.0;
+    const bool plain = plain_pin(j);
     if (!plain) r = JointRow{};
     r.joint = s.joints[k];
     r.type = j.type;
@@ -285,20 +295,49 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
   };
   s.spring_rows.clear();
   size_t n_rows = 0;
+  ColouredPoints& cp = coloured_points;
   if (springs == 0) {
-    // Row k is joint k's: rows in chunks, each written by one thread.
+    // Row k is joint k's: rows in chunks, each written by one thread. When the rows may be last
+    // tick's (the same joints with the same slots and kinds: the same layout), each pin is
+    // written straight into its lane from a row of the chunk's own (place_point), and only the
+    // other rows are kept; a row that differs is kept too and the tick colours its rows anew.
     n_rows = s.joints.size();
     const int chunks = static_cast<int>((n_rows + kJointsPerChunk - 1) / kJointsPerChunk);
+    const bool placing = !every_row && layout_fits(cp, s.joints, pool != nullptr);
+    cp.chunk_differs.assign(chunks, 0);
     auto chunk = [&](int c) {
       const size_t lo = static_cast<size_t>(c) * kJointsPerChunk;
       const size_t hi = std::min(lo + kJointsPerChunk, n_rows);
+      JointRow pin;  // rows of plain pins are written up to `soft`, the rest left as is
       for (size_t k = lo; k < hi; ++k) {
         if (k + kJointFetchAhead < hi) fetch_joint(joints[s.joints[k + kJointFetchAhead]]);
-        fill_row(k, s.joint_rows[k]);
-        note_slots(k);
+        if (!placing) {
+          fill_row(k, s.joint_rows[k]);
+          note_slots(k);
+          continue;
+        }
+        const bool to_lane = plain_pin(joints[s.joints[k]]);
+        JointRow& r = to_lane ? pin : s.joint_rows[k];
+        fill_row(k, r);
+        s.joint_row_slots[k] = SolverScratch::RowSlots{r.ia, r.ib, r.plain_point};
+        if (place_point(&cp, k, r, s.bodies, s.body_extras)) continue;
+        cp.chunk_differs[c] = 1;
+        if (to_lane) s.joint_rows[k] = pin;
       }
     };
     run_chunks(chunks > 1 ? pool : nullptr, chunks, chunk, true);
+    const bool placed = placing && std::find(cp.chunk_differs.begin(), cp.chunk_differs.end(), 1) ==
+                                       cp.chunk_differs.end();
+    if (placed) {
+      s.track_angles = !cp.other_rows.empty();
+      return;
+    }
+    if (placing) {
+      // Some pins went straight to lanes that are about to be laid out anew: their rows too.
+      for (size_t k = 0; k < n_rows; ++k) {
+        if (s.joint_row_slots[k].plain_point) fill_row(k, s.joint_rows[k]);
+      }
+    }
   } else {
     // Spring force elements have rows of their own; constraints fill joint_rows in id order.
     for (size_t k = 0; k < s.joints.size(); ++k) {
@@ -313,9 +352,9 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h) {
   }
   s.joint_rows.resize(n_rows);
   s.joint_row_slots.resize(n_rows);
-  colour_points(s.joint_rows, s.joint_row_slots, s.bodies, s.body_extras, pool, &coloured_points);
+  colour_points(s.joint_rows, s.joint_row_slots, s.bodies, s.body_extras, pool, &cp);
   // Only the rows that are not plain points read the angles the bodies turn.
-  s.track_angles = !coloured_points.other_rows.empty();
+  s.track_angles = !cp.other_rows.empty();
 }
 
 void WorldImpl::warm_start_joints(WorkerPool* workers) {

@@ -20,6 +20,18 @@ bool movable(const std::vector<SolverBody>& bodies, const std::vector<SolverBody
   return bodies[slot].inv_mass > 0.0 || extras[slot].inv_inertia > 0.0;
 }
 
+PointKey point_key(int joint, const SolverScratch::RowSlots& r,
+                   const std::vector<SolverBody>& bodies,
+                   const std::vector<SolverBodyExtra>& extras) {
+  PointKey key;
+  key.joint = joint;
+  key.ia = r.ia;
+  key.ib = r.ib;
+  key.kind = (r.plain_point ? kPlainKey : 0) | (movable(bodies, extras, r.ia) ? kMovableAKey : 0) |
+             (movable(bodies, extras, r.ib) ? kMovableBKey : 0);
+  return key;
+}
+
 void clear_lane(PointBlock* b, int l) {
   b->ia[l] = b->ib[l] = 0;
   b->write_a[l] = b->write_b[l] = 0;
@@ -29,12 +41,13 @@ void clear_lane(PointBlock* b, int l) {
   b->ix[l] = b->iy[l] = 0.0;
 }
 
-void write_lane(const JointRow& r, const std::vector<SolverBody>& bodies,
-                const std::vector<SolverBodyExtra>& extras, PointBlock* b, int l) {
+// Row r's lane, `key` its key (point_key).
+void write_lane(const JointRow& r, const PointKey& key, const std::vector<SolverBodyExtra>& extras,
+                PointBlock* b, int l) {
   b->ia[l] = r.ia;
   b->ib[l] = r.ib;
-  b->write_a[l] = movable(bodies, extras, r.ia);
-  b->write_b[l] = movable(bodies, extras, r.ib);
+  b->write_a[l] = (key.kind & kMovableAKey) != 0;
+  b->write_b[l] = (key.kind & kMovableBKey) != 0;
   b->inv_inertia_a[l] = extras[r.ia].inv_inertia;
   b->inv_inertia_b[l] = extras[r.ib].inv_inertia;
   b->rax[l] = r.rax;
@@ -149,15 +162,20 @@ void colour_points(const std::vector<JointRow>& rows,
   std::vector<int>& lane_of_row = out->lane_of_row;
   lane_of_row.assign(n_rows, -1);
   out->other_rows.clear();
+  out->keys.resize(n_rows);
+  out->keyed_with_pool = pool != nullptr;
+  ++out->layouts;
   int count[kMaxColours + 1] = {};
   for (size_t k = 0; k < n_rows; ++k) {
     const SolverScratch::RowSlots& r = slots[k];
+    const PointKey key = point_key(rows[k].joint, r, bodies, extras);
+    out->keys[k] = key;
     if (!r.plain_point) {
       out->other_rows.push_back(static_cast<int>(k));
       continue;
     }
-    const int colour = take_colour(use, r.ia, movable(bodies, extras, r.ia), r.ib,
-                                   movable(bodies, extras, r.ib), false);
+    const int colour = take_colour(use, r.ia, (key.kind & kMovableAKey) != 0, r.ib,
+                                   (key.kind & kMovableBKey) != 0, false);
     lane_of_row[k] = colour;
     ++count[colour];
   }
@@ -179,7 +197,8 @@ void colour_points(const std::vector<JointRow>& rows,
     for (size_t k = c * per_chunk; k < std::min((c + 1) * per_chunk, n_rows); ++k) {
       const int lane = lane_of_row[k];
       if (lane < 0) continue;
-      write_lane(rows[k], bodies, extras, &out->blocks[lane / kBlockLanes], lane % kBlockLanes);
+      write_lane(rows[k], out->keys[k], extras, &out->blocks[lane / kBlockLanes],
+                 lane % kBlockLanes);
       out->lane_joint[lane] = rows[k].joint;
     }
   };
@@ -189,6 +208,27 @@ void colour_points(const std::vector<JointRow>& rows,
   out->grouped_rows.clear();
   out->chunk_start.clear();
   if (pool != nullptr) group_other_rows(rows, bodies.size(), out);
+}
+
+bool layout_fits(const ColouredPoints& cp, const std::vector<int>& row_joints, bool with_pool) {
+  if (row_joints.empty() || cp.keys.size() != row_joints.size()) return false;
+  if (cp.keyed_with_pool != with_pool) return false;
+  for (size_t k = 0; k < row_joints.size(); ++k) {
+    if (cp.keys[k].joint != row_joints[k]) return false;
+  }
+  return true;
+}
+
+bool place_point(ColouredPoints* cp, size_t k, const JointRow& r,
+                 const std::vector<SolverBody>& bodies,
+                 const std::vector<SolverBodyExtra>& extras) {
+  const PointKey key = point_key(r.joint, {r.ia, r.ib, r.plain_point}, bodies, extras);
+  if (!(key == cp->keys[k])) return false;
+  if (r.plain_point) {
+    const int lane = cp->lane_of_row[k];
+    write_lane(r, key, extras, &cp->blocks[lane / kBlockLanes], lane % kBlockLanes);
+  }
+  return true;
 }
 
 void unpack_points(const ColouredPoints& cp, std::vector<Joint>* joints, WorkerPool* pool) {

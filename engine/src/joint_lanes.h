@@ -31,6 +31,17 @@ struct alignas(64) PointBlock {
   double ix[kBlockLanes], iy[kBlockLanes];    // accumulated point impulse
 };
 
+// What the layout of a tick's points reads of one joint row: its joint, its slots, whether it is
+// a plain point and whether each of its bodies moves. Rows with the same keys, row for row,
+// are coloured, grouped and laid out the same.
+struct PointKey {
+  int joint = -1;
+  int ia = 0, ib = 0;
+  uint8_t kind = 0;  // kPlainKey | kMovableAKey | kMovableBKey
+  bool operator==(const PointKey&) const = default;
+};
+inline constexpr uint8_t kPlainKey = 1, kMovableAKey = 2, kMovableBKey = 4;
+
 // One pass's feedback, shared by every point of the group (their softness is the world's).
 struct PointRule {
   bool use_bias = true;
@@ -57,11 +68,18 @@ struct ColouredPoints {
   // order. Empty (no chunks) without threads, or with fewer than two chunks' rows.
   std::vector<int> grouped_rows;
   std::vector<int> chunk_start;
-  std::vector<uint32_t> body_use;  // scratch: colours used per solver body
-  std::vector<int> slot_parent;    // scratch: union-find over solver slots
-  std::vector<int> slot_group;     // scratch: group of a root slot
-  std::vector<int> group_place;    // scratch: each group's size, then its place
-  std::vector<int> group_sorted;   // scratch: grouped_rows in the making
+  // Each row's key when colour_points laid the points out, and whether it grouped the other
+  // rows (it had a pool): a tick with the same keys has this layout (place_point). `layouts`
+  // counts the layouts made.
+  std::vector<PointKey> keys;
+  bool keyed_with_pool = false;
+  int64_t layouts = 0;
+  std::vector<uint8_t> chunk_differs;  // scratch: prepare_joints' chunks, a row not placed
+  std::vector<uint32_t> body_use;      // scratch: colours used per solver body
+  std::vector<int> slot_parent;        // scratch: union-find over solver slots
+  std::vector<int> slot_group;         // scratch: group of a root slot
+  std::vector<int> group_place;        // scratch: each group's size, then its place
+  std::vector<int> group_sorted;       // scratch: grouped_rows in the making
 };
 
 // Rows per chunk of grouped_rows: a constant, so that chunks never depend on the thread count.
@@ -85,12 +103,22 @@ void each_other_row(const ColouredPoints& cp, WorkerPool* pool, F row_fn) {
 // Colours the plain point rows of `rows` (read from `slots`, row for row) and packs them into
 // blocks, each lane starting from its row's accumulated point impulse (JointRow::ix, iy),
 // sharing the packing among the pool's threads. With a pool it also groups the other rows;
-// without, they have no chunks.
+// without, they have no chunks. It keeps every row's key for place_point.
 void colour_points(const std::vector<JointRow>& rows,
                    const std::vector<SolverScratch::RowSlots>& slots,
                    const std::vector<SolverBody>& bodies,
                    const std::vector<SolverBodyExtra>& extras, WorkerPool* pool,
                    ColouredPoints* out);
+// Whether the last layout (colour_points) was made for rows of these joints, row for row, and
+// grouped as `with_pool` asks: then place_point may be tried row by row. (A tick that solves its
+// islands in groups of different joints lays each group out anew.)
+bool layout_fits(const ColouredPoints& cp, const std::vector<int>& row_joints, bool with_pool);
+// Row k of a tick whose rows fit the last layout: true when it has row k's key there, a plain
+// point then written from `r` into the lane it had (the rest of the layout is unchanged, so the
+// row itself need not be kept); false when it differs, and the tick's rows must be coloured
+// anew (colour_points, from every row).
+bool place_point(ColouredPoints* cp, size_t k, const JointRow& r,
+                 const std::vector<SolverBody>& bodies, const std::vector<SolverBodyExtra>& extras);
 // Writes the lanes' point impulses back to their joints, sharing the blocks among the pool's
 // threads (each lane has its own joint).
 void unpack_points(const ColouredPoints& cp, std::vector<Joint>* joints, WorkerPool* pool);

@@ -28,6 +28,8 @@ struct RevoluteRow {
 
 // A plain pin's row (plain_point) is the fields up to `soft` alone: prepare_joints writes
 // only those, and nothing reads the rest of such a row (a joint grid's rows are mostly pins).
+// On a tick that keeps the last tick's layout of the pins (joint_lanes.h, place_point) a pin's
+// row is written into its lane and not kept: only the other rows are in joint_rows then.
 struct JointRow {
   int joint = -1;
   int ia = 0, ib = 0;  // solver body slots (0: the shared static body)

@@ -173,8 +173,10 @@ class WorldImpl {
   void destroy_joint_at(int joint);
   // Whether a joint between the two bodies forbids their contact.
   bool joint_blocks_contact(int body_a, int body_b) const;
-  // Prepares the awake joints' rows and colours their plain points (joint_lanes.h).
-  void prepare_joints(const std::vector<int>& awake, double h);
+  // Prepares the awake joints' rows and colours their plain points (joint_lanes.h). The rows of
+  // pins are kept only with `every_row` (the reference solver reads them); otherwise a tick
+  // whose rows are laid out as the last one's writes its pins straight into their lanes.
+  void prepare_joints(const std::vector<int>& awake, double h, bool every_row = false);
   // The plain points first, in lanes (on `workers`' threads when not null), then every other
   // row in row order.
   void warm_start_joints(WorkerPool* workers);

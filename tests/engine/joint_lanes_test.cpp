@@ -92,15 +92,17 @@ void expect_valid_colouring(const World& w) {
   const WorldImpl& impl = w.impl();
   const ColouredPoints& cp = impl.coloured_points;
   const SolverScratch& s = impl.solver_scratch;
-  ASSERT_EQ(cp.lane_of_row.size(), s.joint_rows.size());
+  // A pin's JointRow is not kept on a tick that keeps its layout: its slots are.
+  const std::vector<SolverScratch::RowSlots>& rows = s.joint_row_slots;
+  ASSERT_EQ(cp.lane_of_row.size(), rows.size());
   ASSERT_EQ(static_cast<int>(cp.colour_start.size()), cp.colours + 1);
   // Every plain point has its own lane holding its bodies; every other row is left to the
   // one-by-one solver, in row order.
   std::set<int> lanes_used;
   std::vector<int> others;
-  for (size_t k = 0; k < s.joint_rows.size(); ++k) {
+  for (size_t k = 0; k < rows.size(); ++k) {
     const int lane = cp.lane_of_row[k];
-    if (!s.joint_rows[k].plain_point) {
+    if (!rows[k].plain_point) {
       EXPECT_EQ(lane, -1);
       others.push_back(static_cast<int>(k));
       continue;
@@ -108,8 +110,8 @@ void expect_valid_colouring(const World& w) {
     ASSERT_GE(lane, 0);
     EXPECT_TRUE(lanes_used.insert(lane).second);
     const PointBlock& b = cp.blocks[lane / kBlockLanes];
-    EXPECT_EQ(b.ia[lane % kBlockLanes], s.joint_rows[k].ia);
-    EXPECT_EQ(b.ib[lane % kBlockLanes], s.joint_rows[k].ib);
+    EXPECT_EQ(b.ia[lane % kBlockLanes], rows[k].ia);
+    EXPECT_EQ(b.ib[lane % kBlockLanes], rows[k].ib);
   }
   EXPECT_EQ(static_cast<int>(lanes_used.size()), cp.points);
   EXPECT_EQ(cp.other_rows, others);
@@ -162,6 +164,52 @@ TEST(JointLanes, EveryThreadCountGivesOneThreadsBits) {
     const ColouredPoints& cp = w.impl().coloured_points;
     EXPECT_GE(cp.colour_start[1] - cp.colour_start[0], 2 * kBlocksPerChunk);
   });
+}
+
+// A tick whose rows are the last tick's joints with the same slots and kinds keeps its layout
+// and writes the pins straight into their lanes; an edit that changes a row lays the points out
+// anew. Either way the bits are those of a world restored from its own snapshot before every
+// tick (a new world: it lays its points out at every tick).
+TEST(JointLanes, AKeptLayoutGivesTheBitsOfANewOne) {
+  const SceneDef scene = grid(6);
+  World kept = build(scene);
+  World renewed = build(scene);
+  auto edit = [](World& w, int tick) {
+    const std::vector<BodyId> bodies = w.bodies();
+    if (tick == 10) {  // a pin less: every later row moves up one
+      ASSERT_TRUE(w.destroy_joint(w.joints()[7]).ok());
+    } else if (tick == 20) {  // a limited joint: a row that is not a pin
+      RevoluteJointDef def;
+      def.body_a = bodies[8];
+      def.body_b = bodies[15];
+      def.local_anchor_a = Vec2(0.5, -0.5);
+      def.local_anchor_b = Vec2(-0.5, 0.5);
+      def.enable_limit = true;
+      def.lower_angle = -0.2;
+      def.upper_angle = 0.2;
+      ASSERT_TRUE(w.create_revolute_joint(def).ok());
+    } else if (tick == 30) {  // a body moved: the same rows, every pin of it with new anchors
+      const BodyState b = w.body_state(bodies[20]).value();
+      ASSERT_TRUE(
+          w.set_transform(bodies[20], b.transform.p + Vec2(0.1, -0.05), b.transform.q.angle() + 0.3)
+              .ok());
+    } else if (tick == 40) {  // threads: the other rows grouped for them
+      ASSERT_TRUE(w.set_threads(2).ok());
+    }
+  };
+  for (int tick = 0; tick < 60; ++tick) {
+    edit(kept, tick);
+    edit(renewed, tick);
+    ASSERT_TRUE(renewed.restore(renewed.snapshot()).ok());
+    kept.step();
+    renewed.step();
+    ASSERT_EQ(kept.state_hash(), renewed.state_hash()) << "tick " << tick;
+    expect_valid_colouring(kept);
+  }
+  // Laid out at the first tick and after the joint destroyed, the joint created and the
+  // threads: the moved body kept its layout.
+  EXPECT_EQ(kept.impl().coloured_points.layouts, 4);
+  EXPECT_GT(kept.metrics().max_joint_error, 0.0);
 }
 
 // 50 ragdolls (limited revolute joints: rows of their own, a group per ragdoll), and six
