@@ -215,8 +215,32 @@ ColourLayout lay_out_colours(const int count[kMaxColours + 1], std::vector<int>*
   return out;
 }
 
+namespace {
+
+// The padding of colour_contacts: the static body on both sides, zero masses, nothing written.
+void pad_contact_colours(const ColourLayout& layout, ColouredContacts* out) {
+  pad_colours(layout, &out->blocks, [out](ContactBlock* b, int l) {
+    clear_lane(b, &out->rests[b - out->blocks.data()], l);
+  });
+}
+
+// Whether `rows` and the slots' kinds are those the layout was made from.
+bool same_layout(const std::vector<RowBodies>& rows, const std::vector<uint8_t>& slot_dynamic,
+                 const ColouredContacts& cc) {
+  return !rows.empty() && rows == cc.keyed_rows && slot_dynamic == cc.keyed_dynamic;
+}
+
+}  // namespace
+
 void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<SolverBody>& bodies,
-                     ColouredContacts* out) {
+                     const std::vector<uint8_t>& slot_dynamic, ColouredContacts* out) {
+  if (same_layout(rows, slot_dynamic, *out)) {
+    pad_contact_colours(out->padding, out);
+    return;
+  }
+  ++out->layouts;
+  out->keyed_rows = rows;
+  out->keyed_dynamic = slot_dynamic;
   const size_t n_rows = rows.size();
   std::vector<uint32_t>& use = out->body_use;
   use.assign(bodies.size(), 0);
@@ -248,11 +272,9 @@ void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<Solve
   }
   out->blocks.resize(layout.blocks);
   out->rests.resize(layout.blocks);
-  // Empty lanes at the end of each colour and of the overflow: the static body on both sides,
-  // zero masses, nothing written.
-  pad_colours(layout, &out->blocks, [out](ContactBlock* b, int l) {
-    clear_lane(b, &out->rests[b - out->blocks.data()], l);
-  });
+  // Empty lanes at the end of each colour and of the overflow.
+  out->padding = layout;
+  pad_contact_colours(layout, out);
 }
 
 void clear_lane_point(ContactBlock* block, ContactBlockRest* rest, int point, int lane) {

@@ -115,6 +115,13 @@ struct IntegrateRule {
   double max_turn = 0.0;
 };
 
+// The colours' block ranges (lay_out_colours, below).
+struct ColourLayout {
+  int colours = 0;
+  int blocks = 0;
+  int next_lane[kMaxColours + 1] = {};
+};
+
 // The coloured blocks of one tick. Blocks [colour_start[c], colour_start[c + 1]) hold colour
 // c; blocks from colour_start[colours] on hold the overflow, `overflow` lanes in id order.
 struct ColouredContacts {
@@ -129,6 +136,13 @@ struct ColouredContacts {
   std::vector<uint8_t> bounce_marks;  // scratch: per block, whether it is a bounce block
   std::vector<uint32_t> body_use;     // scratch: colours used per solver body
   std::vector<double> chunk_largest;  // scratch: each chunk's largest impulse
+  // What the layout was made from: the rows' slots and whether each slot's body is dynamic.
+  // A tick with the same rows and slots gets the same colours, so colour_contacts keeps the
+  // layout (lanes and colours) and pads it again. `layouts` counts the layouts made.
+  std::vector<RowBodies> keyed_rows;
+  std::vector<uint8_t> keyed_dynamic;
+  ColourLayout padding;  // the layout's ends of lanes placed, for padding it again
+  int64_t layouts = 0;
 };
 
 class WorkerPool;
@@ -141,12 +155,7 @@ int take_colour(std::vector<uint32_t>& use, int a, bool write_a, int b, bool wri
 // Block ranges from the rows counted per colour (count[kMaxColours]: the overflow): each colour
 // padded to whole blocks, in colour order, the overflow last. Sets colour_start (colours + 1
 // entries) and next_lane[c], the first lane of colour c (the overflow's at kMaxColours); returns
-// the number of blocks.
-struct ColourLayout {
-  int colours = 0;
-  int blocks = 0;
-  int next_lane[kMaxColours + 1] = {};
-};
+// the number of blocks (ColourLayout, above).
 ColourLayout lay_out_colours(const int count[kMaxColours + 1], std::vector<int>* colour_start);
 // Fills the rest of each colour's last block, and the overflow's, with empty lanes:
 // clear(block, lane) for each lane from layout.next_lane[c] (advanced past the rows placed) to
@@ -165,9 +174,11 @@ void pad_colours(const ColourLayout& layout, Blocks* blocks, Clear clear) {
 // Colours the rows (in id order) by their bodies and lays out the blocks: each row's lane
 // (lane_of_row, and row_of_lane back), the colours' ranges, the padding. The rows' lanes are
 // left for their preparation (contact_solver.cpp, prepare_lane), which may write the lanes of
-// one block on different threads.
+// one block on different threads. Rows and slots as at the last layout keep that layout (the
+// colouring is a function of them alone), padded again. slot_dynamic: beside `bodies`, whether
+// each slot's body is dynamic (inv_mass > 0).
 void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<SolverBody>& bodies,
-                     ColouredContacts* out);
+                     const std::vector<uint8_t>& slot_dynamic, ColouredContacts* out);
 // Point `point` of a lane whose manifold has fewer points: zero masses and impulses, so that it
 // changes nothing.
 void clear_lane_point(ContactBlock* block, ContactBlockRest* rest, int point, int lane);

@@ -99,12 +99,14 @@ void load_bodies(WorldImpl& w, const std::vector<int>& awake, bool pseudo, Solve
                  WorkerPool* pool) {
   s.bodies.resize(awake.size() + 1);
   s.body_extras.resize(awake.size() + 1);
+  s.slot_dynamic.resize(awake.size() + 1);
   s.slot_body.resize(awake.size() + 1);
   s.centres.resize(awake.size() + 1);
   s.slot_body[0] = -1;
   s.centres[0] = SlotCentre{};
   s.bodies[0] = SolverBody{};  // the shared static body: zero velocity, infinite mass
   s.body_extras[0] = SolverBodyExtra{};
+  s.slot_dynamic[0] = 0;
   if (pseudo) {
     s.pseudo.assign(awake.size() + 1, PseudoVelocity{});
   } else {
@@ -124,6 +126,7 @@ void load_bodies(WorldImpl& w, const std::vector<int>& awake, bool pseudo, Solve
       sb.vy = b.v.y();
       sb.w = b.w;
       sb.inv_mass = b.inv_mass;
+      s.slot_dynamic[k + 1] = b.inv_mass > 0.0;
       SolverBodyExtra& x = s.body_extras[k + 1];
       x = SolverBodyExtra{};
       x.inv_inertia = b.inv_inertia;
@@ -436,7 +439,7 @@ void prepare_coloured(WorldImpl& w, SolverScratch& s, double h, ColouredContacts
   for (size_t k = 0; k < n_rows; ++k) {
     if (s.row_restitution[k] != 0.0) s.restitution_rows.push_back(static_cast<int>(k));
   }
-  colour_contacts(s.row_bodies, s.bodies, cc);
+  colour_contacts(s.row_bodies, s.bodies, s.slot_dynamic, cc);
   // The blocks restitution's approach speeds are tracked in, ascending, each once: marked, then
   // listed in block order (a scene of bouncy shapes has most of its rows here, too many to sort
   // each tick).

@@ -112,6 +112,7 @@ struct ContactRow {
 // The solver body slots of a row's bodies.
 struct RowBodies {
   int ia = 0, ib = 0;
+  bool operator==(const RowBodies&) const = default;
 };
 
 struct ContactRowExtra {
@@ -139,6 +140,7 @@ struct BodyDrive {
 struct SolverScratch {
   std::vector<SolverBody> bodies;
   std::vector<SolverBodyExtra> body_extras;  // beside bodies, slot for slot
+  std::vector<uint8_t> slot_dynamic;         // beside bodies: inv_mass > 0 (load_bodies)
   std::vector<PseudoVelocity> pseudo;        // beside bodies with split impulses, else empty
   // Whether this tick's joint rows read the angles turned (SolverBodyExtra::da): the substeps
   // add them up only then.

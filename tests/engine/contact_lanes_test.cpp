@@ -126,6 +126,65 @@ TEST(ContactLanes, EveryThreadCountGivesOneThreadsBits) {
   expect_threads_agree(plank, 60);
 }
 
+// Two wide boxes on the ground, a ball resting on each (bodies 1 to 4: boxes, then balls).
+SceneDef balls_on_boxes() {
+  SceneDef s;
+  s.settings.enable_sleep = false;  // rows that stay
+  scenes::add_ground(&s, 20.0);
+  auto add = [&](Vec2 at, const Geometry& g) {
+    SceneBody b;
+    b.def.type = BodyType::kDynamic;
+    b.def.position = at;
+    ShapeDef shape;
+    shape.geometry = g;
+    b.shapes.push_back(shape);
+    s.bodies.push_back(b);
+  };
+  add(Vec2(-3.0, 0.25), make_box(1.5, 0.25));
+  add(Vec2(3.0, 0.25), make_box(1.5, 0.25));
+  add(Vec2(-3.5, 0.9), Circle{Vec2::Zero(), 0.4});
+  add(Vec2(3.0, 0.9), Circle{Vec2::Zero(), 0.4});
+  return s;
+}
+
+// A tick whose rows have the slots of the last layout's, their bodies as dynamic as then,
+// keeps that layout; any other lays its rows out anew. Either way the bits are those of a world
+// restored from its own snapshot before every tick (a new world lays its rows out every tick).
+// Moving the second ball onto the first box keeps the number of rows but not their colours:
+// both balls' rows now write the first box.
+TEST(ContactLanes, AKeptLayoutGivesTheBitsOfANewOne) {
+  const SceneDef scene = balls_on_boxes();
+  World kept = build(scene);
+  World renewed = build(scene);
+  auto edit = [](World& w, int tick) {
+    const BodyId ball = w.bodies()[4];
+    if (tick == 10) {  // a push: the same rows, new velocities
+      ASSERT_TRUE(w.apply_linear_impulse(ball, Vec2(0.3, 0.0), Vec2(3.0, 1.2)).ok());
+    } else if (tick == 20) {  // onto the first box, beside the other ball
+      ASSERT_TRUE(w.set_transform(ball, Vec2(-2.4, 0.9), 0.0).ok());
+    }
+  };
+  int64_t settled = 0;
+  for (int tick = 0; tick < 60; ++tick) {
+    edit(kept, tick);
+    edit(renewed, tick);
+    ASSERT_TRUE(renewed.restore(renewed.snapshot()).ok());
+    kept.step();
+    renewed.step();
+    ASSERT_EQ(kept.state_hash(), renewed.state_hash()) << "tick " << tick;
+    expect_valid_colouring(kept);
+    const int64_t layouts = kept.impl().coloured_contacts.layouts;
+    if (tick == 1) settled = layouts;
+    if (tick == 19) {
+      EXPECT_EQ(layouts, settled);  // the same rows from the second tick to the move
+    }
+    if (tick == 20) {
+      EXPECT_EQ(layouts, settled + 1);
+    }
+  }
+  EXPECT_EQ(kept.impl().solver_scratch.row_bodies.size(), 4u);
+}
+
 void add_bouncing_ball(SceneDef* s, Vec2 at, double radius) {
   SceneBody ball;
   ball.def.type = BodyType::kDynamic;
