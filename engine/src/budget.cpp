@@ -115,7 +115,7 @@ void each_awake_joint_end(WorldImpl& w, const std::vector<int>& awake, EndFn end
   // Joints [lo, hi) of the pool: fn(ji) for each awake one, found(j, k, other) for its ends.
   auto walk = [&](size_t lo, size_t hi, auto&& fn, auto&& found) {
     for (size_t ji = lo; ji < hi; ++ji) {
-      if (ji + kJointFetchAhead < hi) fetch_joint(w.joints[ji + kJointFetchAhead]);
+      if (ji + kJointFetchAhead < hi) fetch_joint_head(w.joints[ji + kJointFetchAhead]);
       const Joint& j = w.joints[ji];
       if (!j.alive) continue;
       const Body& a = w.bodies[j.body_a];

@@ -672,9 +672,10 @@ Status World::try_step() {
   w.collide();
 
   // The awake set in id order: every later stage visits bodies and contacts in this order.
+  // (A world whose bodies neither sleep nor wake keeps awake_bodies in id order: no sort.)
   std::vector<int>& awake = w.scratch_awake;
   awake.assign(w.awake_bodies.begin(), w.awake_bodies.end());
-  std::sort(awake.begin(), awake.end());
+  if (!std::is_sorted(awake.begin(), awake.end())) std::sort(awake.begin(), awake.end());
 
   w.solve(awake);
   w.break_joints();
