@@ -117,4 +117,23 @@ void expect_thread_counts_agree(const SceneDef& scene, int ticks, std::initializ
   }
 }
 
+// Steps two worlds of `scene` for `ticks` ticks, edit(world, tick) applied to both before each
+// tick, the second restored from its own snapshot before every tick (a new world: it keeps
+// nothing from the tick before, the lanes' layouts included); expects the same state hash after
+// every tick, and calls after(first world, tick) after each.
+template <class Edit, class After>
+void expect_restored_every_tick_agrees(const SceneDef& scene, int ticks, Edit edit, After after) {
+  World kept = build(scene);
+  World renewed = build(scene);
+  for (int tick = 0; tick < ticks; ++tick) {
+    edit(kept, tick);
+    edit(renewed, tick);
+    ASSERT_TRUE(renewed.restore(renewed.snapshot()).ok());
+    kept.step();
+    renewed.step();
+    ASSERT_EQ(kept.state_hash(), renewed.state_hash()) << "tick " << tick;
+    after(kept, tick);
+  }
+}
+
 }  // namespace fulcrum::testing
