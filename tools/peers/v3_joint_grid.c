@@ -30,8 +30,8 @@ int main(int argc, char** argv) {
       const int i = col * kSide + row;
       b2BodyDef def = b2DefaultBodyDef();
       const int middle = kSide / 2;
-      def.type = row == 0 && col >= middle - 3 && col <= middle + 3 ? b2_staticBody
-                                                                      : b2_dynamicBody;
+      def.type =
+          row == 0 && col >= middle - 3 && col <= middle + 3 ? b2_staticBody : b2_dynamicBody;
       def.position = (b2Pos){(double)col, -(double)row};
       circles[i] = b2CreateBody(world, &def);
       b2CreateCircleShape(circles[i], &shape, &circle);
