@@ -232,8 +232,8 @@ bool same_layout(const std::vector<RowBodies>& rows, const std::vector<uint8_t>&
 
 }  // namespace
 
-void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<SolverBody>& bodies,
-                     const std::vector<uint8_t>& slot_dynamic, ColouredContacts* out) {
+void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<uint8_t>& slot_dynamic,
+                     ColouredContacts* out) {
   if (same_layout(rows, slot_dynamic, *out)) {
     pad_contact_colours(out->padding, out);
     return;
@@ -243,15 +243,15 @@ void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<Solve
   out->keyed_dynamic = slot_dynamic;
   const size_t n_rows = rows.size();
   std::vector<uint32_t>& use = out->body_use;
-  use.assign(bodies.size(), 0);
+  use.assign(slot_dynamic.size(), 0);
   // Pass 1: each row's colour (kMaxColours: overflow), counted per colour.
   std::vector<int>& lane_of_row = out->lane_of_row;
   lane_of_row.resize(n_rows);
   int count[kMaxColours + 1] = {};
   for (size_t k = 0; k < n_rows; ++k) {
     const RowBodies& row = rows[k];
-    const bool dyn_a = bodies[row.ia].inv_mass > 0.0;
-    const bool dyn_b = bodies[row.ib].inv_mass > 0.0;
+    const bool dyn_a = slot_dynamic[row.ia] != 0;
+    const bool dyn_b = slot_dynamic[row.ib] != 0;
     // Contacts between two dynamic bodies take the lowest free colour, contacts with a static
     // or kinematic body the highest: each pass solves them last, so the ground has the last
     // word (a pyramid created overlapping then leaves no faster than 3 m/s, where lowest-first

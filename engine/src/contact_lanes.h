@@ -174,11 +174,11 @@ void pad_colours(const ColourLayout& layout, Blocks* blocks, Clear clear) {
 // Colours the rows (in id order) by their bodies and lays out the blocks: each row's lane
 // (lane_of_row, and row_of_lane back), the colours' ranges, the padding. The rows' lanes are
 // left for their preparation (contact_solver.cpp, prepare_lane), which may write the lanes of
-// one block on different threads. Rows and slots as at the last layout keep that layout (the
-// colouring is a function of them alone), padded again. slot_dynamic: beside `bodies`, whether
-// each slot's body is dynamic (inv_mass > 0).
-void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<SolverBody>& bodies,
-                     const std::vector<uint8_t>& slot_dynamic, ColouredContacts* out);
+// one block on different threads. slot_dynamic: for each solver slot, whether its body is
+// dynamic (SolverScratch::slot_dynamic). Rows and slots as at the last layout keep that layout
+// (the colouring is a function of them alone), padded again.
+void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<uint8_t>& slot_dynamic,
+                     ColouredContacts* out);
 // Point `point` of a lane whose manifold has fewer points: zero masses and impulses, so that it
 // changes nothing.
 void clear_lane_point(ContactBlock* block, ContactBlockRest* rest, int point, int lane);

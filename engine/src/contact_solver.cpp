@@ -439,7 +439,7 @@ void prepare_coloured(WorldImpl& w, SolverScratch& s, double h, ColouredContacts
   for (size_t k = 0; k < n_rows; ++k) {
     if (s.row_restitution[k] != 0.0) s.restitution_rows.push_back(static_cast<int>(k));
   }
-  colour_contacts(s.row_bodies, s.bodies, s.slot_dynamic, cc);
+  colour_contacts(s.row_bodies, s.slot_dynamic, cc);
   // The blocks restitution's approach speeds are tracked in, ascending, each once: marked, then
   // listed in block order (a scene of bouncy shapes has most of its rows here, too many to sort
   // each tick).
