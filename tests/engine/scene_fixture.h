@@ -12,6 +12,7 @@
 #include "fulcrum/scene.h"
 #include "fulcrum/scenes.h"
 #include "fulcrum/simd.h"
+#include "fulcrum/state.h"
 #include "fulcrum/world.h"
 
 namespace fulcrum::testing {
