@@ -68,11 +68,6 @@ bool face_normal(const Geometry& g, const Vec2& normal) {
   return std::abs(dot(d, normal)) < 1e-9 * length(d);
 }
 
-bool flat(const Geometry& g) {
-  if (const Polygon* p = std::get_if<Polygon>(&g)) return p->radius == 0.0;
-  return std::holds_alternative<Segment>(g);
-}
-
 // Keeps a new touching manifold for reuse when its normal is a face normal of A or of B (the
 // face that will turn with its body); a normal between closest points (corners meeting) is not
 // kept, since it turns as the corners slide.
@@ -335,17 +330,16 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
         return;
       }
     }
-    const Shape& sa = shapes[c.shape_a];
-    const Shape& sb = shapes[c.shape_b];
     const Body& ba = bodies[c.body_a];
     const Body& bb = bodies[c.body_b];
     // How far the bodies' centres close or slide in one tick. A pair moving faster than the
     // reuse distance a tick would move past it by the next: its manifold is neither tried nor
     // kept (a speed test only; the drift since a manifold was found decides).
     const double travel = settings.dt * length(bb.v - ba.v);
-    const bool reusable =
-        reuse > 0.0 && travel <= reuse && !c.sensor && flat(sa.geometry) && flat(sb.geometry);
-    if (reusable) {
+    const bool slow = reuse > 0.0 && travel <= reuse;
+    // A kept manifold is one of two flat shapes, not a sensor's (it was kept only if so, and
+    // neither changes while the contact lives): moving it on reads neither shape.
+    if (slow && manifold_caches[list[k]].valid) {
       // The smaller shape's size, from its fat box: width + height is at least its diameter.
       const AABB& fa = fat_boxes[c.shape_a];
       const AABB& fb = fat_boxes[c.shape_b];
@@ -353,6 +347,9 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
       const double size = std::min(ea.x() + ea.y(), eb.x() + eb.y());
       if (reuse_manifold(manifold_caches[list[k]], ba.xf, bb.xf, size, reuse, c)) return;
     }
+    const Shape& sa = shapes[c.shape_a];
+    const Shape& sb = shapes[c.shape_b];
+    const bool reusable = slow && !c.sensor && flat(sa.geometry) && flat(sb.geometry);
     // What warm starting needs of the old points: their ids and impulses.
     struct Kept {
       uint32_t id;

@@ -50,4 +50,11 @@ Manifold collide(const Geometry& a, const Transform& xfa, const Geometry& b, con
 // without calling collide.
 Manifold no_points(ShapeType ta, ShapeType tb);
 
+// Whether a shape has sharp flat faces (a polygon without rounding, or a segment): the only
+// shapes whose manifolds the narrow phase keeps and moves with the bodies (contact.cpp).
+inline bool flat(const Geometry& g) {
+  if (const Polygon* p = std::get_if<Polygon>(&g)) return p->radius == 0.0;
+  return std::holds_alternative<Segment>(g);
+}
+
 }  // namespace fulcrum

@@ -215,6 +215,11 @@ Status check_contact(const WorldSnapshot& s, size_t ci) {
   if (c.manifold.count == 0) {
     return corrupt(at("contact", ci, "cache") + " is kept for a manifold without points");
   }
+  // The narrow phase moves a kept manifold on without looking at the shapes again.
+  if (c.sensor || !flat(s.shapes[c.shape_a].geometry) || !flat(s.shapes[c.shape_b].geometry)) {
+    return corrupt(at("contact", ci, "cache") +
+                   " is kept for a sensor or a shape without flat faces");
+  }
   FULCRUM_RETURN_IF_ERROR(check_number(at("contact", ci, "cache.pose"), k.pose.p));
   FULCRUM_RETURN_IF_ERROR(check_number(at("contact", ci, "cache.pose"), k.pose.q.c));
   FULCRUM_RETURN_IF_ERROR(check_number(at("contact", ci, "cache.pose"), k.pose.q.s));
