@@ -271,9 +271,9 @@ Vec2 centre_of(const WorldImpl& w, const SolverScratch& s, int slot, int body) {
 
 // Point mp of a row between bodies a and b (their centres of mass at the tick's start), along
 // the unit normal (nx, ny): what the rigid step's rows and the lanes are both prepared from.
-ContactPointRow prepare_point(const RowRule& r, const ManifoldPoint& mp, Vec2 centre_a,
-                              Vec2 centre_b, const ScalarBody& a, const ScalarBody& b, double nx,
-                              double ny) {
+inline __attribute__((always_inline)) ContactPointRow prepare_point(
+    const RowRule& r, const ManifoldPoint& mp, Vec2 centre_a, Vec2 centre_b, const ScalarBody& a,
+    const ScalarBody& b, double nx, double ny) {
   const double tx = ny, ty = -nx;
   const double m = a.inv_mass + b.inv_mass;
   ContactPointRow p;
