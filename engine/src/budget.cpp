@@ -530,7 +530,7 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
       return grp.substeps == sub && grp.relax == relax && grp.iterations == passes;
     });
     if (it == budget.groups.end()) {
-      budget.groups.push_back(BudgetGroup{sub, relax, passes, {}, {}});
+      budget.groups.push_back(BudgetGroup{sub, relax, passes, {}, {}, {}});
       it = budget.groups.end() - 1;
     }
     it->bodies.push_back(awake[k]);
@@ -555,13 +555,16 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   group_of.resize(n);
   for (size_t i = 0; i < budget.groups.size(); ++i) {
     budget.groups[i].contacts.clear();
+    budget.groups[i].contact_bodies.clear();
     for (const int bi : budget.groups[i].bodies) group_of[slot[bi] - 1] = static_cast<int>(i);
   }
   for (size_t t = 0; t < touching_contacts.size(); ++t) {
     const ContactBodies& c = touching_bodies[t];
     const bool awake_a = bodies[c.a].awake, awake_b = bodies[c.b].awake;
     const int owner = awake_a && awake_b ? std::min(c.a, c.b) : (awake_a ? c.a : c.b);
-    budget.groups[group_of[slot[owner] - 1]].contacts.push_back(touching_contacts[t]);
+    BudgetGroup& grp = budget.groups[group_of[slot[owner] - 1]];
+    grp.contacts.push_back(touching_contacts[t]);
+    grp.contact_bodies.push_back(c);
   }
   return true;
 }
@@ -579,12 +582,12 @@ void WorldImpl::solve(const std::vector<int>& awake) {
   budget.max_iterations = settings.velocity_iterations;
   if (!plan_budgets(awake)) {
     if (!one_pass_tick()) {
-      solve_group(awake, touching_contacts);
+      solve_group(awake, touching_contacts, touching_bodies);
       return;
     }
     const int iterations = settings.velocity_iterations;
     settings.velocity_iterations = budget.max_iterations = 1;
-    solve_group(awake, touching_contacts);
+    solve_group(awake, touching_contacts, touching_bodies);
     settings.velocity_iterations = iterations;
     return;
   }
@@ -606,7 +609,7 @@ void WorldImpl::solve(const std::vector<int>& awake) {
     budget.max_iterations = std::max(budget.max_iterations, grp.iterations);
     settings.joint_hertz = joint_hertz * grp.substeps / substeps;
     settings.contact_hertz = contact_hertz * grp.substeps / substeps;
-    solve_group(grp.bodies, grp.contacts);
+    solve_group(grp.bodies, grp.contacts, grp.contact_bodies);
     if (budget.groups.size() > 1) {
       solved_joints.insert(solved_joints.end(), solver_scratch.joints.begin(),
                            solver_scratch.joints.end());

@@ -376,6 +376,7 @@ void prepare_lane(const WorldImpl& w, SolverScratch& s, const RowRule& r, size_t
                   ColouredContacts* cc) {
   const Contact& c = w.contacts[s.contacts[k]];
   const RowBodies slots = s.row_bodies[k];
+  s.row_restitution[k] = c.restitution;
   const Vec2 centre_a = centre_of(w, s, slots.ia, c.body_a);
   const Vec2 centre_b = centre_of(w, s, slots.ib, c.body_b);
   const ScalarBody a = scalar_body(s, slots.ia);
@@ -422,24 +423,29 @@ void prepare_lane(const WorldImpl& w, SolverScratch& s, const RowRule& r, size_t
 // Soft contacts: each row is prepared where it is used, straight into its lane
 // (contact_lanes.h), restitution's approach speeds included. Coloured in id order first, from
 // the rows' bodies.
-void prepare_coloured(WorldImpl& w, SolverScratch& s, double h, ColouredContacts* cc,
-                      WorkerPool* pool) {
+void prepare_coloured(WorldImpl& w, SolverScratch& s, const std::vector<ContactBodies>& bodies,
+                      double h, ColouredContacts* cc, WorkerPool* pool) {
   const size_t n_rows = s.contacts.size();
   s.row_bodies.resize(n_rows);
   s.row_points.resize(n_rows);
   s.row_restitution.resize(n_rows);
-  for_chunks(pool, n_rows, 256, [&](size_t lo, size_t hi) {
+  // The rows' slots from the contacts' bodies as collide listed them: no contact record is read
+  // before its row is prepared.
+  for_chunks(pool, n_rows, 1024, [&](size_t lo, size_t hi) {
     for (size_t k = lo; k < hi; ++k) {
-      const Contact& c = w.contacts[s.contacts[k]];
-      s.row_bodies[k] = row_bodies(s, c);
-      s.row_restitution[k] = c.restitution;
+      s.row_bodies[k] = RowBodies{solver_slot(s, bodies[k].a), solver_slot(s, bodies[k].b)};
     }
   });
+  colour_contacts(s.row_bodies, s.slot_dynamic, cc);
+  const RowRule r = row_rule(w, h);
+  for_chunks(pool, n_rows, 256, [&](size_t lo, size_t hi) {
+    for (size_t k = lo; k < hi; ++k) prepare_lane(w, s, r, k, cc);
+  });
+  // Restitution's rows, which prepare_lane noted.
   s.restitution_rows.clear();
   for (size_t k = 0; k < n_rows; ++k) {
     if (s.row_restitution[k] != 0.0) s.restitution_rows.push_back(static_cast<int>(k));
   }
-  colour_contacts(s.row_bodies, s.slot_dynamic, cc);
   // The blocks restitution's approach speeds are tracked in, ascending, each once: marked, then
   // listed in block order (a scene of bouncy shapes has most of its rows here, too many to sort
   // each tick).
@@ -452,10 +458,6 @@ void prepare_coloured(WorldImpl& w, SolverScratch& s, double h, ColouredContacts
       if (marks[b]) cc->bounce_blocks.push_back(static_cast<int>(b));
     }
   }
-  const RowRule r = row_rule(w, h);
-  for_chunks(pool, n_rows, 256, [&](size_t lo, size_t hi) {
-    for (size_t k = lo; k < hi; ++k) prepare_lane(w, s, r, k, cc);
-  });
 }
 
 // Restitution needs the speed of approach at impact, not at the start of the tick. Within a
@@ -956,8 +958,8 @@ void finalize_bodies(WorldImpl& w, const std::vector<int>& awake, SolverScratch&
 
 }  // namespace
 
-void WorldImpl::solve_group(const std::vector<int>& awake,
-                            const std::vector<int>& contacts_sorted) {
+void WorldImpl::solve_group(const std::vector<int>& awake, const std::vector<int>& contacts_sorted,
+                            const std::vector<ContactBodies>& contact_bodies) {
   SolverScratch& s = solver_scratch;
   const WorldSettings& set = settings;
   const double h = set.dt / set.substeps;
@@ -990,7 +992,7 @@ void WorldImpl::solve_group(const std::vector<int>& awake,
           : nullptr;
   if (workers != nullptr) workers->begin_busy();
   if (coloured) {
-    prepare_coloured(*this, s, h, &coloured_contacts, workers);
+    prepare_coloured(*this, s, contact_bodies, h, &coloured_contacts, workers);
   } else {
     prepare(*this, s, h, workers);
   }

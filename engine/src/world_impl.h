@@ -251,8 +251,10 @@ class WorldImpl {
   void solve(const std::vector<int>& awake_sorted);
   // One group's solve (all awake bodies, or one budget group: islands of one substep count,
   // run with settings.substeps and joint_hertz set for it), with its touching solid contacts
-  // (touching_contacts, or the group's share of them).
-  void solve_group(const std::vector<int>& bodies_sorted, const std::vector<int>& contacts_sorted);
+  // (touching_contacts, or the group's share of them) and, beside them, their bodies
+  // (touching_bodies, or the group's share).
+  void solve_group(const std::vector<int>& bodies_sorted, const std::vector<int>& contacts_sorted,
+                   const std::vector<ContactBodies>& contact_bodies);
   // Splits the awake bodies into budget groups (budget.cpp); false when all keep the
   // world's substeps.
   bool plan_budgets(const std::vector<int>& awake_sorted);
@@ -323,8 +325,9 @@ class WorldImpl {
     int iterations = 0;       // velocity passes per substep
     std::vector<int> bodies;  // in id order
     // Its touching solid contacts, in id order: those whose lower-indexed awake body is in
-    // the group (a contact's awake dynamic bodies are always in one group).
+    // the group (a contact's awake dynamic bodies are always in one group); and their bodies.
     std::vector<int> contacts;
+    std::vector<ContactBodies> contact_bodies;
   };
   struct Budget {
     int islands = 0;         // islands given more substeps or relax passes than the world's
