@@ -30,11 +30,14 @@ double WorldImpl::box_reach(const Shape& s) const {
 void WorldImpl::create_proxy(int si) {
   Shape& s = shapes[si];
   const Body& b = bodies[s.body];
-  AABB fat = compute_aabb(s.geometry, b.xf).fattened(box_reach(s));
+  const AABB box = compute_aabb(s.geometry, b.xf);
+  AABB fat = box.fattened(box_reach(s));
   s.proxy = tree_of(s).create_proxy(fat, static_cast<uint64_t>(si), s.filter.category_bits,
                                     s.filter.mask_bits);
   if (fat_boxes.size() < shapes.size()) fat_boxes.resize(shapes.size());
   fat_boxes[si] = fat;
+  if (awake_boxes.size() < shapes.size()) awake_boxes.resize(shapes.size());
+  place_box(si, box);
   if (!s.in_move_buffer) {
     s.in_move_buffer = true;
     move_buffer.push_back(si);
@@ -54,15 +57,17 @@ void WorldImpl::destroy_proxy(int si) {
 // The new fat box of each of a body's shapes whose box, swept by the next tick's travel and
 // widened by the speculative distance, left its old one; or nothing. A shape that stays inside
 // its fat box costs one box computation and no tree work. Sweeping lets fast bodies meet what
-// lies ahead of them before they get there. Reads only: safe on several threads at once.
+// lies ahead of them before they get there. Writes only the body's own shapes' placed boxes:
+// safe on several threads at once for different bodies.
 template <class F>
-void WorldImpl::find_moves(int bi, F&& moved) const {
+void WorldImpl::find_moves(int bi, F&& moved) {
   const Body& b = bodies[bi];
   Vec2 travel = settings.dt * b.v;
   for (int si : b.shapes) {
     const Shape& s = shapes[si];
     // The box now and where it will be after a tick at this velocity.
     AABB swept = compute_aabb(s.geometry, b.xf);
+    place_box(si, swept);
     swept.lower += travel.cwiseMin(Vec2::Zero());
     swept.upper += travel.cwiseMax(Vec2::Zero());
     if (fat_boxes[si].contains(swept.fattened(settings.speculative_distance))) continue;

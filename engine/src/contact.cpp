@@ -235,10 +235,9 @@ void WorldImpl::fill_awake_boxes() {
       const Body& b = bodies[awake_bodies[k]];
       for (int si : b.shapes) {
         AwakeBox& r = awake_boxes[si];
-        r.box = compute_aabb(shapes[si].geometry, b.xf);
+        if (!r.placed) place_box(si, compute_aabb(shapes[si].geometry, b.xf));
         r.v = b.v;
         r.call = collide_calls;
-        r.type = geometry_type(shapes[si].geometry);
       }
     }
   };

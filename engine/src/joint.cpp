@@ -6,6 +6,7 @@
 
 #include "fulcrum/trig.h"
 #include "joint_solver.h"
+#include "revolute_joint.h"
 #include "validation.h"
 #include "worker_pool.h"
 #include "world_impl.h"
@@ -362,15 +363,22 @@ void WorldImpl::warm_start_joints(WorkerPool* workers) {
   warm_start_points(coloured_points, s.bodies.data(), workers);
   each_other_row(coloured_points, workers, [&](int k) {
     const JointRow& r = s.joint_rows[k];
+    if (r.type == JointType::kRevolute) {  // from its row alone, inline: bodies in registers
+      ScalarBody a = scalar_body(s, r.ia);
+      ScalarBody b = scalar_body(s, r.ib);
+      warm_start_revolute_joint(r, a, b);
+      store_velocity(a, s.bodies[r.ia]);
+      store_velocity(b, s.bodies[r.ib]);
+      return;
+    }
     ScalarBody a = scalar_body(s, r.ia);
     ScalarBody b = scalar_body(s, r.ib);
-    Joint& j = joints[r.joint];  // read by every type but revolute
+    Joint& j = joints[r.joint];
     switch (r.type) {
       case JointType::kDistance:
         warm_start_distance_joint(j, r, a, b);
         break;
       case JointType::kRevolute:
-        warm_start_revolute_joint(r, a, b);  // from its row alone
         break;
       case JointType::kWeld:
         warm_start_weld_joint(j, r, a, b);
@@ -418,15 +426,22 @@ void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers) {
   solve_points(coloured_points, s.bodies.data(), rule, workers);
   each_other_row(coloured_points, workers, [&](int k) {
     JointRow& r = s.joint_rows[k];
+    if (r.type == JointType::kRevolute) {  // from its row alone, inline: bodies in registers
+      ScalarBody a = scalar_body(s, r.ia);
+      ScalarBody b = scalar_body(s, r.ib);
+      solve_revolute_joint(r, st, a, b);
+      store_velocity(a, s.bodies[r.ia]);
+      store_velocity(b, s.bodies[r.ib]);
+      return;
+    }
     ScalarBody a = scalar_body(s, r.ia);
     ScalarBody b = scalar_body(s, r.ib);
-    Joint& j = joints[r.joint];  // read by every type but revolute
+    Joint& j = joints[r.joint];
     switch (r.type) {
       case JointType::kDistance:
         solve_distance_joint(j, r, st, a, b);
         break;
       case JointType::kRevolute:
-        solve_revolute_joint(r, st, a, b);  // from its row alone
         break;
       case JointType::kWeld:
         solve_weld_joint(j, r, st, a, b);

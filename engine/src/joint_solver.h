@@ -240,11 +240,7 @@ void solve_curve_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarB
 void apply_spring_force(Joint& j, const JointRow& r, double h, ScalarBody& a, ScalarBody& b);
 
 void prepare_revolute_joint(const Joint& j, JointRow& r, const ScalarBody& a, const ScalarBody& b);
-// A revolute joint that is not a plain point, from and into its row (JointRow::revolute, ix, iy).
-void warm_start_revolute_joint(const JointRow& r, ScalarBody& a, ScalarBody& b);
-void solve_revolute_joint(JointRow& r, const JointStep& st, ScalarBody& a, ScalarBody& b);
-// A revolute joint's point rows, with its accumulated point impulse in `impulse` (x, y).
-void solve_revolute_point(const JointRow& r, const JointStep& st, double* impulse, ScalarBody& a,
-                          ScalarBody& b);
+// A revolute joint that is not a plain point is warm-started and solved from and into its row
+// (JointRow::revolute, ix, iy) by revolute_joint.h's inline functions.
 
 }  // namespace fulcrum

@@ -439,6 +439,7 @@ Status World::restore(const WorldSnapshot& s) {
   // The tree's shape never reaches the results (pairs and query hits are sorted), only the
   // boxes do, so inserting in id order is enough.
   w.fat_boxes = s.shape_boxes;
+  w.awake_boxes.resize(s.shape_boxes.size());
   for (size_t si = 0; si < w.shapes.size(); ++si) {
     Shape& sh = w.shapes[si];
     sh.proxy = sh.alive ? w.tree_of(sh).create_proxy(s.shape_boxes[si], si, sh.filter.category_bits,

@@ -150,13 +150,25 @@ class WorldImpl {
   // round fills them when it has many contacts to refresh); `call` says which collide call
   // filled it. Not state: an entry filled by an earlier call is never read (collide_calls only
   // grows; a restore makes a new WorldImpl).
+  //
+  // `box` is also kept between ticks: wherever a shape's box is computed at its body's
+  // transform (create_proxy; find_moves, after every tick's move and every set_transform) it is
+  // stored here and `placed` set, so that collide's fill need not compute it again. A body's
+  // transform changes nowhere else, so a placed box is always the box at the current transform.
   struct alignas(64) AwakeBox {
     AABB box;
     Vec2 v = Vec2::Zero();
     uint64_t call = 0;
     ShapeType type = ShapeType::kCircle;
+    bool placed = false;
   };
   std::vector<AwakeBox> awake_boxes;
+  void place_box(int si, const AABB& box) {
+    AwakeBox& r = awake_boxes[si];
+    r.box = box;
+    r.type = geometry_type(shapes[si].geometry);
+    r.placed = true;
+  }
   uint64_t collide_calls = 0;
   std::vector<int> move_buffer;  // shape indices whose proxies moved or were created
   std::vector<std::pair<int, AABB>> pending_moves;  // proxy and new fat box (commit_moves)
@@ -220,7 +232,7 @@ class WorldImpl {
   // then committed together (commit_moves).
   void synchronize_awake(const std::vector<int>& awake);
   template <class F>
-  void find_moves(int body, F&& moved) const;
+  void find_moves(int body, F&& moved);
   void buffer_move(int shape);
   void commit_moves();  // pending_moves into the tree
   // Finds the new pairs of the moved shapes and creates their contacts. When they would take
