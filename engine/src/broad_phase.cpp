@@ -5,6 +5,7 @@
 // contact ids never depend on either tree's shape.
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <limits>
 
 #include "worker_pool.h"
@@ -18,20 +19,28 @@ namespace fulcrum {
 // margin is an eighth of the shape's half-diagonal, at most settings.aabb_margin: a margin as
 // large as a small shape pairs it with neighbours far beyond contact reach, and each pair is a
 // contact the narrow phase visits every tick. Static shapes move only by edits: no margin.
-double WorldImpl::box_reach(const Shape& s) const {
+//
+// A shape travelling more than half its margin a tick (along x or y, `travel` = dt v) gets none
+// either. Its box is swept by the travel, and the next tick's sweep reaches a travel further:
+// the margin would keep it in its box for a tick or two at most, while every tick it widens the
+// box and brings pairs beyond contact reach. In a tumbling pile nearly every box moves each
+// tick whatever its margin (the tumbler's 1,923 of 2,029 at the margin by size alone).
+double WorldImpl::box_reach(const Shape& s, const Vec2& travel) const {
   const double speculative = settings.speculative_distance;
   if (bodies[s.body].type == BodyType::kStatic) return speculative;
   constexpr double kMarginPerHalfDiagonal = 0.125;
   const AABB local = compute_aabb(s.geometry, Transform{});
   const double half_diagonal = 0.5 * length(local.upper - local.lower);
-  return speculative + std::min(settings.aabb_margin, kMarginPerHalfDiagonal * half_diagonal);
+  const double margin = std::min(settings.aabb_margin, kMarginPerHalfDiagonal * half_diagonal);
+  const double t = std::max(std::abs(travel.x()), std::abs(travel.y()));
+  return speculative + (t > 0.5 * margin ? 0.0 : margin);
 }
 
 void WorldImpl::create_proxy(int si) {
   Shape& s = shapes[si];
   const Body& b = bodies[s.body];
   const AABB box = compute_aabb(s.geometry, b.xf);
-  AABB fat = box.fattened(box_reach(s));
+  AABB fat = box.fattened(box_reach(s, settings.dt * b.v));
   s.proxy = tree_of(s).create_proxy(fat, static_cast<uint64_t>(si), s.filter.category_bits,
                                     s.filter.mask_bits);
   if (fat_boxes.size() < shapes.size()) fat_boxes.resize(shapes.size());
@@ -71,7 +80,7 @@ void WorldImpl::find_moves(int bi, F&& moved) {
     swept.lower += travel.cwiseMin(Vec2::Zero());
     swept.upper += travel.cwiseMax(Vec2::Zero());
     if (fat_boxes[si].contains(swept.fattened(settings.speculative_distance))) continue;
-    moved(si, swept.fattened(box_reach(s)));
+    moved(si, swept.fattened(box_reach(s, travel)));
   }
 }
 

@@ -223,8 +223,9 @@ class WorldImpl {
 
   // --- broad phase (broad_phase.cpp) ---
   void create_proxy(int shape);
-  // How far past a shape its fat box reaches: the speculative distance and a margin.
-  double box_reach(const Shape& s) const;
+  // How far past a shape its fat box reaches: the speculative distance and a margin (none for
+  // a shape travelling `travel` a tick, dt v, of more than half its margin).
+  double box_reach(const Shape& s, const Vec2& travel) const;
   void destroy_proxy(int shape);
   // Re-fits a body's moved shapes in the tree at once (edits).
   void synchronize_shapes(int body);

@@ -632,6 +632,30 @@ TEST(WorldTest, FatBoxesReachTheSpeculativeDistanceAndAMarginByShape) {
   // box moves often (76 times as built); but the margin spares it most ticks.
   EXPECT_GT(moves, 40);
   EXPECT_LT(moves, 150);
+
+  // The same box at 1.5 m/s (25 mm a tick, more than half its margin): no margin. Its fat box
+  // is its box swept by the tick's travel and widened by the speculative distance alone, and it
+  // still holds what the next tick needs.
+  World fast(WorldSettings{.gravity = Vec2::Zero(), .enable_sleep = false});
+  def.linear_velocity = Vec2(1.5, -0.2);
+  BodyId runner = *fast.create_body(def);
+  ASSERT_TRUE(fast.create_shape(runner, sd).ok());
+  for (int t = 0; t < 60; ++t) {
+    fast.step();
+    const BodyState state = *fast.body_state(runner);
+    const AABB fat = fast.impl().fat_boxes[0];
+    // Swept, then widened, as the broad phase rounds it.
+    AABB need = compute_aabb(sd.geometry, state.transform);
+    const Vec2 travel = fast.settings().dt * state.linear_velocity;
+    need.lower += travel.cwiseMin(Vec2::Zero());
+    need.upper += travel.cwiseMax(Vec2::Zero());
+    need = need.fattened(speculative);
+    ASSERT_TRUE(fat.contains(need)) << "tick " << t + 1;
+    // Moved this tick (the sweep of the tick before reached only this tick's start), and to
+    // exactly what it needs: 1e-12 m is rounding.
+    EXPECT_NEAR(fat.upper.x(), need.upper.x(), 1e-12) << "tick " << t + 1;
+    EXPECT_NEAR(fat.lower.y(), need.lower.y(), 1e-12) << "tick " << t + 1;
+  }
 }
 
 // A kinematic platform moving sideways carries a box resting on it (friction), and is not

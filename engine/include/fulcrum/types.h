@@ -159,7 +159,8 @@ struct WorldSettings {
   // Collision.
   double speculative_distance = 0.02;  // m, >= 0: contact points kept up to this separation
   // m, >= 0: most a broad-phase box is fattened past its shape's reach (the speculative
-  // distance); a shape gets an eighth of its half-diagonal up to this, a static shape none.
+  // distance); a shape gets an eighth of its half-diagonal up to this, a static shape none, and
+  // a shape travelling more than half its margin a tick none.
   double aabb_margin = 0.1;
   double max_linear_speed = 400.0;  // m/s, > 0: speeds above are clamped
   // A touching manifold between flat shapes (polygons without rounding, segments) is moved
