@@ -94,9 +94,37 @@ void for_chunks(WorkerPool* pool, size_t n, size_t per_chunk, F fn) {
   run_chunks(pool, chunks, chunk);
 }
 
+// A body's BodyDrive for substeps of length h (gravity gx, gy).
+inline BodyDrive drive_of(const Body& b, double gx, double gy, double h) {
+  BodyDrive d;
+  d.dynamic = b.is_dynamic();
+  if (!d.dynamic) return d;
+  // The tick's forces, the constant ones (forces.cpp) and gravity. Constant forces enter
+  // only where present, so that bodies without them keep their bits.
+  double fx = b.force.x(), fy = b.force.y(), torque = b.torque;
+  if (b.constant_force != Vec2::Zero() || b.constant_torque != 0.0) {
+    fx += b.constant_force.x();
+    fy += b.constant_force.y();
+    torque += b.constant_torque;
+  }
+  d.ax = b.inv_mass * fx + b.gravity_scale * gx;
+  d.ay = b.inv_mass * fy + b.gravity_scale * gy;
+  d.dw = h * b.inv_inertia * torque;
+  d.linear_damped = b.linear_damping != 0.0;
+  if (d.linear_damped) d.linear_factor = 1.0 / (1.0 + h * b.linear_damping);
+  d.angular_damped = b.angular_damping != 0.0;
+  if (d.angular_damped) d.angular_factor = 1.0 / (1.0 + h * b.angular_damping);
+  d.dragged = b.drag != 0.0;
+  d.drag = h * b.inv_mass * b.drag;
+  return d;
+}
+
 // `pseudo`: the tick solves split impulses, whose pseudo velocities get an array of their own.
-void load_bodies(WorldImpl& w, const std::vector<int>& awake, bool pseudo, SolverScratch& s,
-                 WorkerPool* pool) {
+// Each body's drive for substeps of length h is worked out as its record is read (s.drives).
+void load_bodies(WorldImpl& w, const std::vector<int>& awake, bool pseudo, double h,
+                 SolverScratch& s, WorkerPool* pool) {
+  const double gx = w.settings.gravity.x(), gy = w.settings.gravity.y();
+  s.drives.resize(awake.size());
   s.bodies.resize(awake.size() + 1);
   s.body_extras.resize(awake.size() + 1);
   s.slot_dynamic.resize(awake.size() + 1);
@@ -130,6 +158,7 @@ void load_bodies(WorldImpl& w, const std::vector<int>& awake, bool pseudo, Solve
       SolverBodyExtra& x = s.body_extras[k + 1];
       x = SolverBodyExtra{};
       x.inv_inertia = b.inv_inertia;
+      s.drives[k] = drive_of(b, gx, gy, h);
     }
   });
 }
@@ -153,36 +182,6 @@ void cap_speeds(SolverBody& sb, double max_speed, double max_turn_rate) {
 
 double max_turn_rate(double h) {
   return 3.14159265358979323846 / h;
-}
-
-// Each awake body's BodyDrive for substeps of length h.
-void prepare_drives(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s, double h,
-                    size_t first, size_t end) {
-  const double gx = w.settings.gravity.x(), gy = w.settings.gravity.y();
-  for (size_t k = first; k < end; ++k) {
-    const Body& b = w.bodies[awake[k]];
-    BodyDrive& d = s.drives[k];
-    d = BodyDrive{};
-    d.dynamic = b.is_dynamic();
-    if (!d.dynamic) continue;
-    // The tick's forces, the constant ones (forces.cpp) and gravity. Constant forces enter
-    // only where present, so that bodies without them keep their bits.
-    double fx = b.force.x(), fy = b.force.y(), torque = b.torque;
-    if (b.constant_force != Vec2::Zero() || b.constant_torque != 0.0) {
-      fx += b.constant_force.x();
-      fy += b.constant_force.y();
-      torque += b.constant_torque;
-    }
-    d.ax = b.inv_mass * fx + b.gravity_scale * gx;
-    d.ay = b.inv_mass * fy + b.gravity_scale * gy;
-    d.dw = h * b.inv_inertia * torque;
-    d.linear_damped = b.linear_damping != 0.0;
-    if (d.linear_damped) d.linear_factor = 1.0 / (1.0 + h * b.linear_damping);
-    d.angular_damped = b.angular_damping != 0.0;
-    if (d.angular_damped) d.angular_factor = 1.0 / (1.0 + h * b.angular_damping);
-    d.dragged = b.drag != 0.0;
-    d.drag = h * b.inv_mass * b.drag;
-  }
 }
 
 // Step 1: applied forces into velocities, v2 = v1 + h M^-1 F, then damping as the decay
@@ -976,9 +975,8 @@ void WorldImpl::solve_group(const std::vector<int>& awake, const std::vector<int
   // Many bodies to load: shared with the pool's threads (which stay busy for the whole group).
   WorkerPool* const loaders = pool != nullptr && awake.size() >= 4096 ? pool : nullptr;
   if (loaders != nullptr) loaders->begin_busy();
-  load_bodies(*this, awake, rule.rigid && rule.split, s, loaders);
+  load_bodies(*this, awake, rule.rigid && rule.split, h, s, loaders);
   s.contacts.assign(contacts_sorted.begin(), contacts_sorted.end());
-  s.drives.resize(awake.size());
   // Soft contacts are solved colour by colour in lanes (contact_lanes.h); rigid contacts (the
   // classic settings, with the block solver and split impulses) one by one in id order.
   const bool coloured = !rule.rigid;
@@ -996,8 +994,6 @@ void WorldImpl::solve_group(const std::vector<int>& awake, const std::vector<int
   } else {
     prepare(*this, s, h, workers);
   }
-  for_chunks(workers, awake.size(), 256,
-             [&](size_t lo, size_t hi) { prepare_drives(*this, awake, s, h, lo, hi); });
   LaneRule lane_solve;
   lane_solve.inv_h = 1.0 / h;
   lane_solve.max_speed = set.max_correction_speed;
@@ -1092,14 +1088,12 @@ void WorldImpl::prepare_reference_tick() {
 
   SolverScratch& s = solver_scratch;
   const double h = settings.dt;
-  budget.base_substeps = settings.substeps;      // impulses as kept, not rescaled
-  load_bodies(*this, awake, false, s, nullptr);  // the reference solver moves no body
+  budget.base_substeps = settings.substeps;         // impulses as kept, not rescaled
+  load_bodies(*this, awake, false, h, s, nullptr);  // the reference solver moves no body
   s.contacts.assign(touching_contacts.begin(), touching_contacts.end());
   prepare(*this, s, h, nullptr);
   prepare_joints(awake, h, true);
   apply_spring_forces(h);
-  s.drives.resize(awake.size());
-  prepare_drives(*this, awake, s, h, 0, awake.size());
   integrate_velocities(*this, awake, s, h, 0, awake.size());
 }
 
