@@ -119,12 +119,31 @@ inline BodyDrive drive_of(const Body& b, double gx, double gy, double h) {
   return d;
 }
 
+// kGravityOnly when a body's drive is the tick's gravity_drive, bit for bit: no force and no
+// torque (+0, as a tick leaves them: -0 would give a -0 term), gravity scale 1, no damping and
+// no drag. Then dw is +0 (h inv_inertia +0) and ax, ay are +0 + g.
+uint8_t drive_kind(const Body& b, const BodyDrive& d) {
+  if (!d.dynamic) return kNoDrive;
+  const bool plain = b.force.x() == 0.0 && !std::signbit(b.force.x()) && b.force.y() == 0.0 &&
+                     !std::signbit(b.force.y()) && b.torque == 0.0 && !std::signbit(b.torque) &&
+                     b.constant_force == Vec2::Zero() && b.constant_torque == 0.0 &&
+                     b.gravity_scale == 1.0 && !d.linear_damped && !d.angular_damped && !d.dragged;
+  return plain ? kGravityOnly : kOwnDrive;
+}
+
 // `pseudo`: the tick solves split impulses, whose pseudo velocities get an array of their own.
 // Each body's drive for substeps of length h is worked out as its record is read (s.drives).
 void load_bodies(WorldImpl& w, const std::vector<int>& awake, bool pseudo, double h,
                  SolverScratch& s, WorkerPool* pool) {
   const double gx = w.settings.gravity.x(), gy = w.settings.gravity.y();
   s.drives.resize(awake.size());
+  s.drive_kinds.resize(awake.size());
+  // What drive_of gives a body of zero force and torque, gravity scale 1 and no damping or drag
+  // (inv_mass * +0 is +0 for any finite inverse mass).
+  s.gravity_drive = BodyDrive{};
+  s.gravity_drive.dynamic = true;
+  s.gravity_drive.ax = 0.0 + gx;
+  s.gravity_drive.ay = 0.0 + gy;
   s.bodies.resize(awake.size() + 1);
   s.body_extras.resize(awake.size() + 1);
   s.slot_dynamic.resize(awake.size() + 1);
@@ -159,6 +178,7 @@ void load_bodies(WorldImpl& w, const std::vector<int>& awake, bool pseudo, doubl
       x = SolverBodyExtra{};
       x.inv_inertia = b.inv_inertia;
       s.drives[k] = drive_of(b, gx, gy, h);
+      s.drive_kinds[k] = drive_kind(b, s.drives[k]);
     }
   });
 }
@@ -192,9 +212,12 @@ void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScr
   const double max_speed = w.settings.max_linear_speed;
   const bool attract = !w.attractors.empty();
   for (size_t k = first; k < end; ++k) {
-    const BodyDrive& d = s.drives[k];
-    if (!d.dynamic) continue;
+    const uint8_t kind = s.drive_kinds[k];
+    if (kind == kNoDrive) continue;
     SolverBody& sb = s.bodies[k + 1];
+    // A body under gravity alone is not read for its drive (BodyDrive, kGravityOnly): its
+    // accelerations are the tick's gravity_drive, its turn and factors none.
+    const BodyDrive& d = kind == kGravityOnly ? s.gravity_drive : s.drives[k];
     double ax = d.ax, ay = d.ay;
     if (attract) {
       const Body& b = w.bodies[awake[k]];

@@ -129,6 +129,10 @@ struct JointRow;
 // What integrate_velocities adds to one awake body every substep, worked out once per tick
 // from its Body (which is large and cold) with the very operations the substep would do, so
 // that the substeps read one small record and give the same bits.
+// How integrate_velocities finds a body's drive (SolverScratch::drive_kinds): none (not
+// dynamic), the tick's gravity_drive (most bodies), or its own in `drives`.
+inline constexpr uint8_t kNoDrive = 0, kGravityOnly = 1, kOwnDrive = 2;
+
 struct BodyDrive {
   double ax = 0.0, ay = 0.0;                         // inv_mass f + gravity_scale g
   double dw = 0.0;                                   // h inv_inertia torque
@@ -145,10 +149,12 @@ struct SolverScratch {
   // Whether this tick's joint rows read the angles turned (SolverBodyExtra::da): the substeps
   // add them up only then.
   bool track_angles = false;
-  std::vector<BodyDrive> drives;    // per awake body (slot k + 1's is drives[k])
-  std::vector<int> body_slot;       // body index -> solver slot (stale for bodies not solved)
-  std::vector<int> slot_body;       // solver slot -> body index (-1 for slot 0)
-  std::vector<SlotCentre> centres;  // beside bodies, slot for slot
+  std::vector<BodyDrive> drives;     // per awake body (slot k + 1's is drives[k])
+  std::vector<uint8_t> drive_kinds;  // per awake body, beside drives: kNoDrive, ...
+  BodyDrive gravity_drive;           // a kGravityOnly body's drive this tick
+  std::vector<int> body_slot;        // body index -> solver slot (stale for bodies not solved)
+  std::vector<int> slot_body;        // solver slot -> body index (-1 for slot 0)
+  std::vector<SlotCentre> centres;   // beside bodies, slot for slot
   // The rigid step's rows (soft contacts' rows live in the coloured lanes, contact_lanes.h).
   std::vector<ContactRow> rows;
   std::vector<ContactRowExtra> extras;
