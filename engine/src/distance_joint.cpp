@@ -82,13 +82,7 @@ void solve_distance_joint(Joint& j, const JointRow& r, const JointStep& st, Scal
   // Lower limit: length - min >= 0 pushes apart.
   if (j.min_length > 0.0) {
     double c = u.length - j.min_length;
-    if (c > 0.0) {
-      bias = c * st.inv_h;  // not reached: may close the gap this substep, no more
-      ms = 1.0;
-      is = 0.0;
-    } else {
-      joint_bias(st, r.soft, c, &bias, &ms, &is);
-    }
+    limit_bias(st, r.soft, c, &bias, &ms, &is);
     double cdot = axis_speed(f, u, a, b);
     double lambda = -ms * r.axial_mass * (cdot + bias) - is * j.lower_impulse;
     lambda =
@@ -101,13 +95,7 @@ void solve_distance_joint(Joint& j, const JointRow& r, const JointStep& st, Scal
   // Upper limit: max - length >= 0 pulls together (a taut rope).
   {
     double c = j.max_length - u.length;
-    if (c > 0.0) {
-      bias = c * st.inv_h;
-      ms = 1.0;
-      is = 0.0;
-    } else {
-      joint_bias(st, r.soft, c, &bias, &ms, &is);
-    }
+    limit_bias(st, r.soft, c, &bias, &ms, &is);
     double cdot = -axis_speed(f, u, a, b);
     double lambda = -ms * r.axial_mass * (cdot + bias) - is * j.upper_impulse;
     lambda =

@@ -158,6 +158,19 @@ inline void joint_bias(const JointStep& st, const Softness& soft, double c, doub
   *impulse_scale = soft.impulse_scale;
 }
 
+// The feedback of an inequality row (a limit) with position error c: while apart (c > 0) it is
+// speculative, the gap closed in one substep with no softness; once reached, the joint's.
+inline void limit_bias(const JointStep& st, const Softness& soft, double c, double* bias,
+                       double* mass_scale, double* impulse_scale) {
+  if (c > 0.0) {
+    *bias = c * st.inv_h;
+    *mass_scale = 1.0;
+    *impulse_scale = 0.0;
+  } else {
+    joint_bias(st, soft, c, bias, mass_scale, impulse_scale);
+  }
+}
+
 // Joint position feedback is capped at WorldSettings::max_correction_speed, as the contacts'
 // push-out is, on the speed a row asks its error to close at. A row's impulse
 //   lambda = -ms m (Jv + bias) - is acc  =  -ms m (Jv + B),   B = bias + is acc / (ms m)

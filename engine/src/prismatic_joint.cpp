@@ -24,13 +24,7 @@ void solve_line_limits(Joint& j, const LineFrame& fr, double m, const JointRow& 
   const double t = fr.ux * fr.f.dx + fr.uy * fr.f.dy;
   double bias, ms, is;
   double c = t - j.lower_angle;  // lower translation
-  if (c > 0.0) {
-    bias = c * st.inv_h;
-    ms = 1.0;
-    is = 0.0;
-  } else {
-    joint_bias(st, r.soft, c, &bias, &ms, &is);
-  }
+  limit_bias(st, r.soft, c, &bias, &ms, &is);
   double cdot = line_axial_speed(fr, a, b);
   double lambda = -ms * m * (cdot + bias) - is * j.lower_impulse;
   lambda = capped_row_impulse(st, lambda, m, cdot, bias, ms, is, j.lower_impulse, true);
@@ -39,13 +33,7 @@ void solve_line_limits(Joint& j, const LineFrame& fr, double m, const JointRow& 
   j.lower_impulse = acc;
   apply_line_axial(fr, lambda, a, b);
   c = j.upper_angle - t;  // upper translation
-  if (c > 0.0) {
-    bias = c * st.inv_h;
-    ms = 1.0;
-    is = 0.0;
-  } else {
-    joint_bias(st, r.soft, c, &bias, &ms, &is);
-  }
+  limit_bias(st, r.soft, c, &bias, &ms, &is);
   cdot = -line_axial_speed(fr, a, b);
   lambda = -ms * m * (cdot + bias) - is * j.upper_impulse;
   lambda = capped_row_impulse(st, lambda, m, cdot, bias, ms, is, j.upper_impulse, true);

@@ -107,13 +107,7 @@ __attribute__((always_inline)) inline void solve_revolute_joint(JointRow& r, con
     double bias, ms, is;
     // Lower: theta - lower >= 0.
     double c = theta - v.lower_angle;
-    if (c > 0.0) {
-      bias = c * st.inv_h;
-      ms = 1.0;
-      is = 0.0;
-    } else {
-      joint_bias(st, r.soft, c, &bias, &ms, &is);
-    }
+    limit_bias(st, r.soft, c, &bias, &ms, &is);
     double lambda = -ms * r.axial_mass * ((b.w - a.w) + bias) - is * v.lower_impulse;
     double acc = std::max(v.lower_impulse + lambda, 0.0);
     lambda = acc - v.lower_impulse;
@@ -121,13 +115,7 @@ __attribute__((always_inline)) inline void solve_revolute_joint(JointRow& r, con
     revolute_detail::apply_angular(lambda, a, b);
     // Upper: upper - theta >= 0.
     c = v.upper_angle - theta;
-    if (c > 0.0) {
-      bias = c * st.inv_h;
-      ms = 1.0;
-      is = 0.0;
-    } else {
-      joint_bias(st, r.soft, c, &bias, &ms, &is);
-    }
+    limit_bias(st, r.soft, c, &bias, &ms, &is);
     lambda = -ms * r.axial_mass * ((a.w - b.w) + bias) - is * v.upper_impulse;
     acc = std::max(v.upper_impulse + lambda, 0.0);
     lambda = acc - v.upper_impulse;
