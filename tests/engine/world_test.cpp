@@ -658,6 +658,55 @@ TEST(WorldTest, FatBoxesReachTheSpeculativeDistanceAndAMarginByShape) {
   }
 }
 
+// The narrow phase takes each awake shape's box from where the broad phase placed it after the
+// bodies last moved (WorldImpl::AwakeBox::placed) instead of working it out again. A placed box
+// must be the shape's box at its body's transform now, to the bit, whatever moved the body: the
+// ticks, set_transform, a shape added to a moving body. After a restore nothing is placed until
+// the bodies move (the narrow phase works those boxes out itself).
+TEST(WorldTest, PlacedBoxesAreTheShapesBoxesAtTheirBodiesTransforms) {
+  World w;
+  add_ground(w);
+  std::vector<BodyId> boxes;
+  for (int i = 0; i < 12; ++i) {
+    boxes.push_back(add_box(w, Vec2(0.3 * (i % 4), 0.6 + 1.1 * (i / 4)), 0.25, 0.3 * i));
+  }
+  // Counts the placed boxes, checking each against compute_aabb.
+  auto placed = [](const World& world) {
+    const WorldImpl& impl = world.impl();
+    int n = 0;
+    for (size_t si = 0; si < impl.shapes.size() && si < impl.awake_boxes.size(); ++si) {
+      const Shape& s = impl.shapes[si];
+      const WorldImpl::AwakeBox& r = impl.awake_boxes[si];
+      if (!s.alive || !r.placed) continue;
+      const AABB want = compute_aabb(s.geometry, impl.bodies[s.body].xf);
+      EXPECT_TRUE(r.box.lower == want.lower && r.box.upper == want.upper) << "shape " << si;
+      EXPECT_EQ(r.type, geometry_type(s.geometry)) << "shape " << si;
+      ++n;
+    }
+    return n;
+  };
+  const int shapes = 13;  // the ground and the boxes
+  EXPECT_EQ(placed(w), shapes);
+  for (int t = 0; t < 40; ++t) w.step();
+  EXPECT_EQ(placed(w), shapes);
+  ASSERT_TRUE(w.set_transform(boxes[5], Vec2(3.0, 2.0), 0.7).ok());
+  EXPECT_EQ(placed(w), shapes);
+  ShapeDef sd;
+  sd.geometry = Circle{Vec2(0.2, 0.0), 0.1};
+  ASSERT_TRUE(w.create_shape(boxes[7], sd).ok());
+  EXPECT_EQ(placed(w), shapes + 1);
+  for (int t = 0; t < 10; ++t) w.step();
+  EXPECT_EQ(placed(w), shapes + 1);
+
+  World copy;
+  ASSERT_TRUE(copy.restore(w.snapshot()).ok());
+  EXPECT_EQ(placed(copy), 0);
+  copy.step();
+  w.step();
+  EXPECT_GT(placed(copy), 0);
+  EXPECT_EQ(copy.snapshot().state_hash, w.snapshot().state_hash);
+}
+
 // A kinematic platform moving sideways carries a box resting on it (friction), and is not
 // pushed by it (infinite mass). The box starts at rest and friction accelerates it at mu g,
 // so it ends v^2 / (2 mu g) = 1 / 12 m behind the platform; 1 cm covers the discrete start.
