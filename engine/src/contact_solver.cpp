@@ -94,11 +94,9 @@ void for_chunks(WorkerPool* pool, size_t n, size_t per_chunk, F fn) {
   run_chunks(pool, chunks, chunk);
 }
 
-// A body's BodyDrive for substeps of length h (gravity gx, gy).
+// A dynamic body's BodyDrive for substeps of length h (gravity gx, gy).
 inline BodyDrive drive_of(const Body& b, double gx, double gy, double h) {
   BodyDrive d;
-  d.dynamic = b.is_dynamic();
-  if (!d.dynamic) return d;
   // The tick's forces, the constant ones (forces.cpp) and gravity. Constant forces enter
   // only where present, so that bodies without them keep their bits.
   double fx = b.force.x(), fy = b.force.y(), torque = b.torque;
@@ -119,20 +117,22 @@ inline BodyDrive drive_of(const Body& b, double gx, double gy, double h) {
   return d;
 }
 
-// kGravityOnly when a body's drive is the tick's gravity_drive, bit for bit: no force and no
-// torque (+0, as a tick leaves them: -0 would give a -0 term), gravity scale 1, no damping and
-// no drag. Then dw is +0 (h inv_inertia +0) and ax, ay are +0 + g.
-uint8_t drive_kind(const Body& b, const BodyDrive& d) {
-  if (!d.dynamic) return kNoDrive;
+// kGravityOnly when drive_of would give a body the tick's gravity_drive, bit for bit: no force
+// and no torque (+0, as a tick leaves them: -0 would give a -0 term), gravity scale 1, no
+// damping and no drag. Then dw is +0 (h inv_inertia +0) and ax, ay are +0 + g.
+uint8_t drive_kind(const Body& b) {
+  if (!b.is_dynamic()) return kNoDrive;
   const bool plain = b.force.x() == 0.0 && !std::signbit(b.force.x()) && b.force.y() == 0.0 &&
                      !std::signbit(b.force.y()) && b.torque == 0.0 && !std::signbit(b.torque) &&
                      b.constant_force == Vec2::Zero() && b.constant_torque == 0.0 &&
-                     b.gravity_scale == 1.0 && !d.linear_damped && !d.angular_damped && !d.dragged;
+                     b.gravity_scale == 1.0 && b.linear_damping == 0.0 &&
+                     b.angular_damping == 0.0 && b.drag == 0.0;
   return plain ? kGravityOnly : kOwnDrive;
 }
 
 // `pseudo`: the tick solves split impulses, whose pseudo velocities get an array of their own.
-// Each body's drive for substeps of length h is worked out as its record is read (s.drives).
+// Each body's drive for substeps of length h is worked out as its record is read (drive_kinds,
+// and drives for the bodies with one of their own).
 void load_bodies(WorldImpl& w, const std::vector<int>& awake, bool pseudo, double h,
                  SolverScratch& s, WorkerPool* pool) {
   const double gx = w.settings.gravity.x(), gy = w.settings.gravity.y();
@@ -141,7 +141,6 @@ void load_bodies(WorldImpl& w, const std::vector<int>& awake, bool pseudo, doubl
   // What drive_of gives a body of zero force and torque, gravity scale 1 and no damping or drag
   // (inv_mass * +0 is +0 for any finite inverse mass).
   s.gravity_drive = BodyDrive{};
-  s.gravity_drive.dynamic = true;
   s.gravity_drive.ax = 0.0 + gx;
   s.gravity_drive.ay = 0.0 + gy;
   s.bodies.resize(awake.size() + 1);
@@ -177,8 +176,9 @@ void load_bodies(WorldImpl& w, const std::vector<int>& awake, bool pseudo, doubl
       SolverBodyExtra& x = s.body_extras[k + 1];
       x = SolverBodyExtra{};
       x.inv_inertia = b.inv_inertia;
-      s.drives[k] = drive_of(b, gx, gy, h);
-      s.drive_kinds[k] = drive_kind(b, s.drives[k]);
+      const uint8_t kind = drive_kind(b);
+      s.drive_kinds[k] = kind;
+      if (kind == kOwnDrive) s.drives[k] = drive_of(b, gx, gy, h);
     }
   });
 }

@@ -126,20 +126,20 @@ struct ContactRowExtra {
 
 struct JointRow;
 
-// What integrate_velocities adds to one awake body every substep, worked out once per tick
-// from its Body (which is large and cold) with the very operations the substep would do, so
-// that the substeps read one small record and give the same bits.
-// How integrate_velocities finds a body's drive (SolverScratch::drive_kinds): none (not
-// dynamic), the tick's gravity_drive (most bodies), or its own in `drives`.
-inline constexpr uint8_t kNoDrive = 0, kGravityOnly = 1, kOwnDrive = 2;
-
+// What integrate_velocities adds to one dynamic awake body every substep, worked out once per
+// tick from its Body (which is large and cold) with the very operations the substep would do,
+// so that the substeps read one small record and give the same bits.
 struct BodyDrive {
   double ax = 0.0, ay = 0.0;                         // inv_mass f + gravity_scale g
   double dw = 0.0;                                   // h inv_inertia torque
   double linear_factor = 1.0, angular_factor = 1.0;  // 1 / (1 + h damping)
   double drag = 0.0;                                 // h inv_mass drag
-  bool dynamic = false, linear_damped = false, angular_damped = false, dragged = false;
+  bool linear_damped = false, angular_damped = false, dragged = false;
 };
+
+// How integrate_velocities finds a body's drive (SolverScratch::drive_kinds): none (not
+// dynamic), the tick's gravity_drive (most bodies), or its own in `drives`.
+inline constexpr uint8_t kNoDrive = 0, kGravityOnly = 1, kOwnDrive = 2;
 
 struct SolverScratch {
   std::vector<SolverBody> bodies;
@@ -149,7 +149,7 @@ struct SolverScratch {
   // Whether this tick's joint rows read the angles turned (SolverBodyExtra::da): the substeps
   // add them up only then.
   bool track_angles = false;
-  std::vector<BodyDrive> drives;     // per awake body (slot k + 1's is drives[k])
+  std::vector<BodyDrive> drives;     // per awake body (slot k + 1's is drives[k]): kOwnDrive's
   std::vector<uint8_t> drive_kinds;  // per awake body, beside drives: kNoDrive, ...
   BodyDrive gravity_drive;           // a kGravityOnly body's drive this tick
   std::vector<int> body_slot;        // body index -> solver slot (stale for bodies not solved)

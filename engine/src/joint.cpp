@@ -379,7 +379,7 @@ void WorldImpl::warm_start_joints(WorkerPool* workers) {
         warm_start_distance_joint(j, r, a, b);
         break;
       case JointType::kRevolute:
-        break;
+        break;  // solved above
       case JointType::kWeld:
         warm_start_weld_joint(j, r, a, b);
         break;
@@ -442,7 +442,7 @@ void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers) {
         solve_distance_joint(j, r, st, a, b);
         break;
       case JointType::kRevolute:
-        break;
+        break;  // solved above
       case JointType::kWeld:
         solve_weld_joint(j, r, st, a, b);
         break;
