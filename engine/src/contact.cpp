@@ -305,9 +305,6 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
   enum Refreshed : uint8_t { kParted, kOverlap, kSteady, kSteadyTouching };
   std::vector<uint8_t>& overlap = scratch_overlap;
   overlap.assign(list.size(), kParted);
-  // The bodies of each contact the chunks find steady and touching, for touching_bodies.
-  std::vector<ContactBodies>& list_bodies = scratch_list_bodies;
-  list_bodies.resize(list.size());
   // Margin on the boxes' gap, far above the rounding of a point's separation.
   constexpr double kApartMargin = 1e-6;
   auto refresh = [&](size_t k) {
@@ -393,13 +390,24 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
   if (recovery && chunk_recovering.size() < static_cast<size_t>(chunks)) {
     chunk_recovering.resize(chunks);
   }
+  // Each chunk's touching solid contacts with their bodies (in id order, the chunks' lists joined
+  // in chunk order make the step's), and the places in `list` the id-order pass must visit.
+  std::vector<ChunkTouching>& chunk_touching = scratch_chunk_touching;
+  if (chunk_touching.size() < static_cast<size_t>(chunks)) chunk_touching.resize(chunks);
   auto chunk = [&](int i) {
     if (recovery) chunk_recovering[i].clear();
+    ChunkTouching& mine = chunk_touching[i];
+    mine.contacts.clear();
+    mine.bodies.clear();
+    mine.visit.clear();
     const size_t lo = static_cast<size_t>(i) * kContactsPerChunk;
     const size_t hi = std::min(lo + kContactsPerChunk, list.size());
     for (size_t k = lo; k < hi; ++k) {
       refresh(k);
-      if (!overlap[k]) continue;
+      if (!overlap[k]) {
+        mine.visit.push_back(static_cast<int>(k));
+        continue;
+      }
       if (press) {
         chunk_pressed[i] = std::max(chunk_pressed[i], press_contact(list[k], *press));
         chunk_unsettled[i] = chunk_unsettled[i] | contact_unsettled[list[k]];
@@ -411,10 +419,17 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
       // pass only wakes bodies, so one awake now is still awake when it comes to this contact.)
       const Contact& c = contacts[list[k]];
       const bool touching = touching_now(c);
+      // The solver's contacts: those touching now, sensors aside, whatever the pass below does
+      // (it only wakes bodies and reports).
+      if (touching && !c.sensor) {
+        mine.contacts.push_back(list[k]);
+        mine.bodies.push_back(ContactBodies{c.body_a, c.body_b});
+      }
       if (touching == c.touching &&
           (!touching || c.sensor || (bodies[c.body_a].awake && bodies[c.body_b].awake))) {
         overlap[k] = touching && !c.sensor ? kSteadyTouching : kSteady;
-        list_bodies[k] = ContactBodies{c.body_a, c.body_b};
+      } else {
+        mine.visit.push_back(static_cast<int>(k));
       }
     }
   };
@@ -428,39 +443,41 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
     }
   }
 
+  for (int i = 0; i < chunks; ++i) {
+    const ChunkTouching& theirs = chunk_touching[i];
+    touching_contacts.insert(touching_contacts.end(), theirs.contacts.begin(),
+                             theirs.contacts.end());
+    touching_bodies.insert(touching_bodies.end(), theirs.bodies.begin(), theirs.bodies.end());
+  }
+
   // Then, in id order: boxes that parted destroy their contact; touches wake and report.
-  for (size_t k = 0; k < list.size(); ++k) {
-    const int ci = list[k];
-    if (overlap[k] == kSteadyTouching) {
-      touching_contacts.push_back(ci);
-      touching_bodies.push_back(list_bodies[k]);
+  for (int i = 0; i < chunks; ++i) {
+    for (const int k : chunk_touching[i].visit) {
+      const int ci = list[k];
+      if (overlap[k] == kParted) {
+        destroy_contact(ci, true);
+        continue;
+      }
+      Contact& c = contacts[ci];
+      const Shape& sa = shapes[c.shape_a];
+      bool was_touching = c.touching;
+      c.touching = touching_now(c);
+      // An awake body touching a sleeping one wakes it (and what rests on it).
+      if (c.touching && !c.sensor) {
+        if (!bodies[c.body_a].awake) wake_island(c.body_a);
+        if (!bodies[c.body_b].awake) wake_island(c.body_b);
+      }
+      if (c.touching == was_touching) continue;
+      if (c.sensor) {
+        bool a_sensor = sa.is_sensor;
+        SensorEvent ev{shape_id(a_sensor ? c.shape_a : c.shape_b),
+                       shape_id(a_sensor ? c.shape_b : c.shape_a)};
+        (c.touching ? events.sensor_begin : events.sensor_end).push_back(ev);
+        continue;
+      }
+      (c.touching ? events.contact_begin : events.contact_end)
+          .push_back({shape_id(c.shape_a), shape_id(c.shape_b)});
     }
-    if (overlap[k] >= kSteady) continue;
-    if (overlap[k] == kParted) {
-      destroy_contact(ci, true);
-      continue;
-    }
-    Contact& c = contacts[ci];
-    const Shape& sa = shapes[c.shape_a];
-    bool was_touching = c.touching;
-    c.touching = touching_now(c);
-    // An awake body touching a sleeping one wakes it (and what rests on it).
-    if (c.touching && !c.sensor) {
-      touching_contacts.push_back(ci);
-      touching_bodies.push_back(ContactBodies{c.body_a, c.body_b});
-      if (!bodies[c.body_a].awake) wake_island(c.body_a);
-      if (!bodies[c.body_b].awake) wake_island(c.body_b);
-    }
-    if (c.touching == was_touching) continue;
-    if (c.sensor) {
-      bool a_sensor = sa.is_sensor;
-      SensorEvent ev{shape_id(a_sensor ? c.shape_a : c.shape_b),
-                     shape_id(a_sensor ? c.shape_b : c.shape_a)};
-      (c.touching ? events.sensor_begin : events.sensor_end).push_back(ev);
-      continue;
-    }
-    (c.touching ? events.contact_begin : events.contact_end)
-        .push_back({shape_id(c.shape_a), shape_id(c.shape_b)});
   }
 }
 

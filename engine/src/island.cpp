@@ -5,37 +5,56 @@
 #include <algorithm>
 
 #include "union_find.h"
+#include "worker_pool.h"
 #include "world_impl.h"
 
 namespace fulcrum {
 
 void WorldImpl::update_sleep(const std::vector<int>& awake) {
   if (awake.empty()) return;
+  const int n = static_cast<int>(awake.size());
+  // The rest timers, each body its own, in chunks of bodies (on the world's threads when there
+  // are many): every awake body's record is read and written once a tick.
+  constexpr int kBodiesPerChunk = 1024;
+  const int chunks = (n + kBodiesPerChunk - 1) / kBodiesPerChunk;
+  WorkerPool* const timers = chunks > 1 ? pool : nullptr;
   if (!settings.enable_sleep) {
-    for (int bi : awake) bodies[bi].sleep_time = 0.0;
+    auto clear = [&](int c) {
+      for (int k = c * kBodiesPerChunk; k < std::min(n, (c + 1) * kBodiesPerChunk); ++k) {
+        bodies[awake[k]].sleep_time = 0.0;
+      }
+    };
+    run_chunks(timers, chunks, clear, true);
     return;
   }
   const double h = settings.dt;
   const double lin_tol2 = settings.linear_sleep_tolerance * settings.linear_sleep_tolerance;
   const double ang_tol2 = settings.angular_sleep_tolerance * settings.angular_sleep_tolerance;
-  const int n = static_cast<int>(awake.size());
   std::vector<int>& slot = solver_scratch.body_slot;  // body -> 1 + position in `awake`
 
-  // Rest timers.
+  // Rest timers; whether any body has rested long enough is an or over the chunks.
   std::vector<double>& island_min = scratch_rest;
-  island_min.assign(n, 0.0);
+  island_min.resize(n);
   std::vector<uint8_t>& dynamic = budget.dynamic;  // whether each awake body is dynamic
   dynamic.resize(n);
+  std::vector<uint8_t>& chunk_rested = scratch_chunk_rested;
+  chunk_rested.assign(chunks, 0);
+  auto tick_timers = [&](int c) {
+    bool rested = false;
+    for (int k = c * kBodiesPerChunk; k < std::min(n, (c + 1) * kBodiesPerChunk); ++k) {
+      Body& b = bodies[awake[k]];
+      dynamic[k] = b.is_dynamic();
+      const bool resting =
+          b.enable_sleep && length_squared(b.v) <= lin_tol2 && b.w * b.w <= ang_tol2;
+      b.sleep_time = resting ? b.sleep_time + h : 0.0;
+      island_min[k] = b.sleep_time;
+      rested = rested || b.sleep_time >= settings.time_to_sleep;
+    }
+    chunk_rested[c] = rested;
+  };
+  run_chunks(timers, chunks, tick_timers, true);
   bool any_rested = false;
-  for (int k = 0; k < n; ++k) {
-    Body& b = bodies[awake[k]];
-    dynamic[k] = b.is_dynamic();
-    bool resting = settings.enable_sleep && b.enable_sleep && length_squared(b.v) <= lin_tol2 &&
-                   b.w * b.w <= ang_tol2;
-    b.sleep_time = resting ? b.sleep_time + h : 0.0;
-    island_min[k] = b.sleep_time;
-    any_rested = any_rested || b.sleep_time >= settings.time_to_sleep;
-  }
+  for (uint8_t r : chunk_rested) any_rested = any_rested || r != 0;
   // An island sleeps only when every body in it has rested long enough: if none has, no
   // island can, and building them is wasted (a world in motion pays only the timers).
   if (!any_rested) return;

@@ -291,8 +291,15 @@ class WorldImpl {
 
   // Scratch reused every step (never part of the state).
   std::vector<int> scratch_contacts;
-  std::vector<uint8_t> scratch_overlap;                  // collide: each contact's Refreshed state
-  std::vector<ContactBodies> scratch_list_bodies;        // collide: each listed contact's bodies
+  std::vector<uint8_t> scratch_overlap;  // collide: each contact's Refreshed state
+  // collide_round: one chunk's touching solid contacts and their bodies, in id order, and the
+  // places in its list the id-order pass visits (contacts that parted or changed).
+  struct ChunkTouching {
+    std::vector<int> contacts;
+    std::vector<ContactBodies> bodies;
+    std::vector<int> visit;
+  };
+  std::vector<ChunkTouching> scratch_chunk_touching;
   std::vector<std::vector<int>> scratch_chunk_contacts;  // collide: each chunk's gathered ids
   std::vector<uint8_t> scratch_awake_flag;               // awake_flags()
   // The last collide's touching contacts that are not sensors, in id order: every contact with
@@ -384,6 +391,7 @@ class WorldImpl {
   std::vector<std::vector<std::pair<int, AABB>>> scratch_moves;        // synchronize_awake
   std::vector<int> scratch_parent;                                     // islands
   std::vector<double> scratch_rest, scratch_root_rest;
+  std::vector<uint8_t> scratch_chunk_rested;  // update_sleep: per chunk, whether a body rested
 };
 
 // The key of an unordered pair of shape indices.
