@@ -371,6 +371,53 @@ struct LaneBodies {
   }
 };
 
+// A group of lanes' rows in an array with one VelocityBefore per solver slot (the next
+// substep's warm start, LaneRule::warm_next), read and written as LaneBodies does the
+// velocities: only the bodies the solver writes; the others read a zero row and write a sink.
+inline constexpr VelocityBefore kZeroWarmRow{};
+
+template <class V>
+struct LaneWarmRows {
+  using L = Lane<V>;
+  static constexpr int kCount = L::kCount;
+  double* out_a[kCount];
+  double* out_b[kCount];
+  alignas(32) double sink[2 * kCount][4];
+  V a[4], b[4];
+
+  template <class Block>
+  FULCRUM_LANE_INLINE LaneWarmRows(const Block& k, int l0, VelocityBefore* rows) {
+    const double* in_a[kCount];
+    const double* in_b[kCount];
+#pragma GCC unroll 16
+    for (int l = 0; l < kCount; ++l) {
+      const bool wa = k.write_a[l0 + l], wb = k.write_b[l0 + l];
+      in_a[l] = wa ? &rows[k.ia[l0 + l]].vx : &kZeroWarmRow.vx;
+      in_b[l] = wb ? &rows[k.ib[l0 + l]].vx : &kZeroWarmRow.vx;
+      out_a[l] = wa ? &rows[k.ia[l0 + l]].vx : sink[2 * l];
+      out_b[l] = wb ? &rows[k.ib[l0 + l]].vx : sink[2 * l + 1];
+    }
+    L::load_rows(in_a, a);
+    L::load_rows(in_b, b);
+  }
+
+  // P added to B at rb and -P to A at ra, as LaneBodies::apply adds it to the velocities.
+  FULCRUM_LANE_INLINE void apply(V ima, V iia, V imb, V iib, V rax, V ray, V rbx, V rby, V px,
+                                 V py) {
+    a[0] -= ima * px;
+    a[1] -= ima * py;
+    a[2] -= iia * (rax * py - ray * px);
+    b[0] += imb * px;
+    b[1] += imb * py;
+    b[2] += iib * (rbx * py - rby * px);
+  }
+
+  FULCRUM_LANE_INLINE void store() {
+    L::store_rows(a, out_a);
+    L::store_rows(b, out_b);
+  }
+};
+
 // Warm start: the accumulated impulses P = lambda_n n + lambda_t t, t = (ny, -nx).
 template <class V>
 FULCRUM_LANE_INLINE void warm_lanes(ContactBlock& k, int l0, SolverBody* bodies) {
@@ -388,6 +435,25 @@ FULCRUM_LANE_INLINE void warm_lanes(ContactBlock& k, int l0, SolverBody* bodies)
             L::load(p.rby + l0), px, py);
   }
   v.store(k, l0, bodies);
+}
+
+// The lanes' accumulated impulses, as warm_lanes applies them, added to rows (one per solver
+// slot, like the velocities) instead: the next substep's warm start, gathered while the last
+// relax pass has the block in hand (LaneRule::warm_next).
+template <class V>
+FULCRUM_LANE_INLINE void gather_warm_lanes(const ContactBlock& k, int l0, VelocityBefore* rows,
+                                           V ima, V iia, V imb, V iib, V nx, V ny) {
+  using L = Lane<V>;
+  LaneWarmRows<V> w(k, l0, rows);
+#pragma GCC unroll 2
+  for (const LanePoint& p : k.points) {
+    const V ni = L::load(p.normal_impulse + l0), ti = L::load(p.tangent_impulse + l0);
+    const V px = ni * nx + ti * ny;
+    const V py = ni * ny - ti * nx;
+    w.apply(ima, iia, imb, iib, L::load(p.rax + l0), L::load(p.ray + l0), L::load(p.rbx + l0),
+            L::load(p.rby + l0), px, py);
+  }
+  w.store();
 }
 
 // The motion rows (dpx, dpy, qc, qs) of a group of lanes' bodies A and B, element j of every
@@ -545,6 +611,8 @@ FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, ContactBlockRest& rest, int l
     if (rule.want_largest) largest = lane_max(largest, lane_max(lambda, -lambda));
   }
   v.store(k, l0, bodies);
+  if (rule.warm_next != nullptr)
+    gather_warm_lanes<V>(k, l0, rule.warm_next, ima, iia, imb, iib, nx, ny);
   return largest;
 }
 

@@ -105,6 +105,9 @@ struct LaneRule {
   Softness soft;                      // between two dynamic bodies
   Softness static_soft;               // with a body of infinite mass (static, kinematic)
   ContactBlockRest* rests = nullptr;  // the blocks' rests (solve_coloured sets it)
+  // When set (the last relax pass of a substep with another after it), each lane also adds its
+  // accumulated impulses, as a warm start applies them, to these rows (one per solver slot).
+  VelocityBefore* warm_next = nullptr;
 };
 
 // One substep's position update (contact_kernel.h, integrate_lanes): its length, the speed

@@ -978,6 +978,20 @@ void finalize_bodies(WorldImpl& w, const std::vector<int>& awake, SolverScratch&
   }
 }
 
+// Slots [first, end): the gathered warm start added to each velocity and its row cleared. A row
+// no lane wrote is zero and is left alone (adding it would turn a velocity of -0 into +0).
+void add_gathered_warm(SolverScratch& s, size_t first, size_t end) {
+  for (size_t i = first; i < end; ++i) {
+    VelocityBefore& w = s.warm_next[i];
+    if (w.vx == 0.0 && w.vy == 0.0 && w.w == 0.0) continue;
+    SolverBody& b = s.bodies[i];
+    b.vx += w.vx;
+    b.vy += w.vy;
+    b.w += w.w;
+    w.vx = w.vy = w.w = 0.0;
+  }
+}
+
 }  // namespace
 
 void WorldImpl::solve_group(const std::vector<int>& awake, const std::vector<int>& contacts_sorted,
@@ -1036,6 +1050,15 @@ void WorldImpl::solve_group(const std::vector<int>& awake, const std::vector<int
   if (coloured && !s.restitution_rows.empty()) {
     bounce_separations(coloured_contacts, s.bodies.data(), workers);
   }
+  // The next substep's warm start (the contacts' lanes and the plain pins') is gathered by the
+  // last relax pass of a substep, which has every lane's final impulse in hand, into one row per
+  // solver slot, and added to the velocities where the warm-start passes came: the same
+  // impulses at the same anchors (nothing moves between the two), one pass fewer a substep.
+  // Only when that pass is surely the last (no early exit). The rows are zero between uses.
+  const bool gather_warm = !rule.rigid && set.relax_iterations > 0 &&
+                           !(set.early_exit_tolerance > 0.0) && set.substeps > 1;
+  if (gather_warm && s.warm_next.size() < s.bodies.size()) s.warm_next.resize(s.bodies.size());
+  bool gathered_warm = false;
   for (int sub = 0; sub < set.substeps; ++sub) {
     if (!s.restitution_rows.empty()) {
       for_chunks(workers, s.bodies.size(), 1024,
@@ -1054,11 +1077,17 @@ void WorldImpl::solve_group(const std::vector<int>& awake, const std::vector<int
     }
     // Later substeps always start from the impulses of the one before.
     if (set.warm_starting || sub > 0) {
-      warm_start_joints(workers);
-      if (coloured) {
-        warm_start_coloured(coloured_contacts, s.bodies.data(), workers);
+      if (gathered_warm) {  // the pins' and the contacts' lanes: gathered by the last relax pass
+        for_chunks(workers, s.bodies.size(), 1024,
+                   [&](size_t lo, size_t hi) { add_gathered_warm(s, lo, hi); });
+        warm_start_joints(workers, false);
       } else {
-        warm_start(s);
+        warm_start_joints(workers);
+        if (coloured) {
+          warm_start_coloured(coloured_contacts, s.bodies.data(), workers);
+        } else {
+          warm_start(s);
+        }
       }
     }
     for (int it = 0; it < set.velocity_iterations; ++it) {
@@ -1077,9 +1106,13 @@ void WorldImpl::solve_group(const std::vector<int>& awake, const std::vector<int
     if (coloured && set.relax_iterations == 0) {
       update_separations(coloured_contacts, s.bodies.data(), workers);
     }
+    gathered_warm = gather_warm && sub + 1 < set.substeps;
     for (int it = 0; it < set.relax_iterations; ++it) {
-      solve_joints(false, workers);
+      VelocityBefore* const warm_next =
+          gathered_warm && it + 1 == set.relax_iterations ? s.warm_next.data() : nullptr;
+      solve_joints(false, workers, warm_next);
       lane_relax.refresh_separation = it == 0;
+      lane_relax.warm_next = warm_next;
       if (contact_pass(relax, lane_relax) < set.early_exit_tolerance) break;
     }
   }

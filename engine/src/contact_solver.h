@@ -167,8 +167,9 @@ struct SolverScratch {
   std::vector<int> restitution_rows;  // rows with restitution > 0
   // With restitution rows: each slot's velocity before this substep's forces.
   std::vector<VelocityBefore> velocity_before;
-  std::vector<int> joints;           // awake joints, by id (after solve: every group's)
-  std::vector<JointRow> joint_rows;  // constraints
+  std::vector<VelocityBefore> warm_next;  // the contacts' next warm start, per slot (solve_group)
+  std::vector<int> joints;                // awake joints, by id (after solve: every group's)
+  std::vector<JointRow> joint_rows;       // constraints
   // Each joint row's slots and kind, written beside it: colour_points reads only these, 12
   // bytes a row instead of a cache line of each large row.
   struct RowSlots {

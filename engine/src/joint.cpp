@@ -358,9 +358,9 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h, bool eve
   s.track_angles = !cp.other_rows.empty();
 }
 
-void WorldImpl::warm_start_joints(WorkerPool* workers) {
+void WorldImpl::warm_start_joints(WorkerPool* workers, bool points) {
   SolverScratch& s = solver_scratch;
-  warm_start_points(coloured_points, s.bodies.data(), workers);
+  if (points) warm_start_points(coloured_points, s.bodies.data(), workers);
   each_other_row(coloured_points, workers, [&](int k) {
     const JointRow& r = s.joint_rows[k];
     if (r.type == JointType::kRevolute) {  // from its row alone, inline: bodies in registers
@@ -406,7 +406,7 @@ void WorldImpl::warm_start_joints(WorkerPool* workers) {
   });
 }
 
-void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers) {
+void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers, VelocityBefore* warm_next) {
   SolverScratch& s = solver_scratch;
   JointStep st;
   st.h = settings.dt / settings.substeps;
@@ -423,6 +423,7 @@ void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers) {
   rule.mass_scale = st.rigid ? 1.0 : soft.mass_scale;
   rule.impulse_scale = st.rigid ? 0.0 : soft.impulse_scale;
   rule.max_speed = st.max_speed;
+  rule.warm_next = warm_next;
   solve_points(coloured_points, s.bodies.data(), rule, workers);
   each_other_row(coloured_points, workers, [&](int k) {
     JointRow& r = s.joint_rows[k];

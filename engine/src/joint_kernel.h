@@ -109,6 +109,12 @@ FULCRUM_LANE_INLINE void solve_point_lanes(PointBlock& k, int l0, SolverBody* bo
   L::store(k.iy + l0, singular ? oy : oy + py);
   v.apply(v.ima_row, iia, v.imb_row, iib, f.rax, f.ray, f.rbx, f.rby, px, py);
   v.store(k, l0, bodies);
+  if (rule.warm_next != nullptr) {
+    LaneWarmRows<V> w(k, l0, rule.warm_next);
+    w.apply(v.ima_row, iia, v.imb_row, iib, f.rax, f.ray, f.rbx, f.rby, L::load(k.ix + l0),
+            L::load(k.iy + l0));
+    w.store();
+  }
 }
 
 // Fetched while block k of [first, end) is solved: the block two on, and the next block's

@@ -49,6 +49,9 @@ struct PointRule {
   double mass_scale = 1.0;
   double impulse_scale = 0.0;
   double max_speed = 0.0;  // cap on the feedback's speed (capped_point_correction)
+  // When set (the last relax pass of a substep with another after it), each lane also adds its
+  // accumulated impulse, as a warm start applies it, to these rows (one per solver slot).
+  VelocityBefore* warm_next = nullptr;
 };
 
 struct ColouredPoints {

@@ -196,9 +196,12 @@ class WorldImpl {
   // whose rows are laid out as the last one's writes its pins straight into their lanes.
   void prepare_joints(const std::vector<int>& awake, double h, bool every_row = false);
   // The plain points first, in lanes (on `workers`' threads when not null), then every other
-  // row in row order.
-  void warm_start_joints(WorkerPool* workers);
-  void solve_joints(bool use_bias, WorkerPool* workers);
+  // row in row order. Without `points`, the plain points' warm start is left out (the last
+  // relax pass gathered it, solve_group).
+  void warm_start_joints(WorkerPool* workers, bool points = true);
+  // With `warm_next`, the plain points' lanes also add their accumulated impulses to it, for
+  // the next substep's warm start (PointRule::warm_next).
+  void solve_joints(bool use_bias, WorkerPool* workers, VelocityBefore* warm_next = nullptr);
   // Writes the tick's point impulses of the plain pins' lanes back to their joints.
   void store_joint_impulses(WorkerPool* workers);
   // Spring force elements: one substep's forces into the solver bodies' velocities.

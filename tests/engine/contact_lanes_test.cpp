@@ -85,6 +85,49 @@ TEST(ContactLanes, ABodyWithMoreContactsThanColoursOverflows) {
   EXPECT_LT(w.metrics().max_speed, 0.05);
 }
 
+// The last relax pass of a substep gathers the next substep's warm start (LaneRule::warm_next):
+// what it adds to the rows is, bit for bit, what a warm-start pass applies to bodies at rest
+// with the impulses the relax pass leaves, on every path and with an overflow. Most rows are
+// not zero: the pyramid's and the plank's contacts carry loads.
+void expect_relax_gathers_the_warm_start(const SceneDef& scene) {
+  for (SimdPath path : supported_simd_paths()) {
+    ASSERT_TRUE(set_simd_path(path).ok());
+    World w = build(scene);
+    for (int i = 0; i < 30; ++i) w.step();
+    WorldImpl& impl = w.impl();
+    ColouredContacts& cc = impl.coloured_contacts;
+    std::vector<SolverBody> bodies = impl.solver_scratch.bodies;
+    std::vector<VelocityBefore> gathered(bodies.size());
+    const double h = impl.settings.dt / impl.settings.substeps;
+    LaneRule relax;
+    relax.inv_h = 1.0 / h;
+    relax.max_speed = impl.settings.max_correction_speed;
+    relax.use_bias = false;
+    relax.soft = make_softness(impl.settings.contact_hertz, impl.settings.contact_damping_ratio, h);
+    relax.static_soft =
+        make_softness(2.0 * impl.settings.contact_hertz, impl.settings.contact_damping_ratio, h);
+    relax.warm_next = gathered.data();
+    solve_coloured(cc, bodies.data(), relax, nullptr);
+    std::vector<SolverBody> at_rest = bodies;
+    for (SolverBody& b : at_rest) b.vx = b.vy = b.w = 0.0;
+    warm_start_coloured(cc, at_rest.data(), nullptr);
+    int loaded = 0;
+    for (size_t i = 0; i < bodies.size(); ++i) {
+      EXPECT_EQ(gathered[i].vx, at_rest[i].vx) << simd_path_name(path) << " slot " << i;
+      EXPECT_EQ(gathered[i].vy, at_rest[i].vy) << simd_path_name(path) << " slot " << i;
+      EXPECT_EQ(gathered[i].w, at_rest[i].w) << simd_path_name(path) << " slot " << i;
+      loaded += gathered[i].vy != 0.0;
+    }
+    EXPECT_GT(loaded, static_cast<int>(bodies.size()) / 2) << simd_path_name(path);
+  }
+  ASSERT_TRUE(set_simd_path(SimdPath::kAuto).ok());
+}
+
+TEST(ContactLanes, TheLastRelaxPassGathersTheWarmStartAWarmStartPassApplies) {
+  expect_relax_gathers_the_warm_start(pyramid(12));
+  expect_relax_gathers_the_warm_start(loaded_plank(40));
+}
+
 TEST(ContactLanes, EveryPathGivesTheScalarBits) {
   expect_simd_paths_agree(pyramid(12), 120);
   expect_simd_paths_agree(loaded_plank(40), 60);

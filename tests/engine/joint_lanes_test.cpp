@@ -148,6 +148,38 @@ TEST(JointLanes, AHubWithMorePinsThanColoursOverflowsAndLimitedJointsStayRows) {
   EXPECT_LT(w.metrics().max_joint_error, 1e-3);
 }
 
+// The last relax pass of a substep gathers the pins' next warm start (PointRule::warm_next):
+// what it adds to the rows is, bit for bit, what the pins' warm-start pass applies to bodies at
+// rest with the impulses the relax pass leaves, on every path.
+TEST(JointLanes, TheLastRelaxPassGathersTheWarmStartAWarmStartPassApplies) {
+  for (SimdPath path : supported_simd_paths()) {
+    ASSERT_TRUE(set_simd_path(path).ok());
+    World w = build(grid(9));
+    for (int i = 0; i < 30; ++i) w.step();
+    WorldImpl& impl = w.impl();
+    ColouredPoints& cp = impl.coloured_points;
+    ASSERT_GT(cp.points, 100);
+    std::vector<SolverBody> bodies = impl.solver_scratch.bodies;
+    std::vector<VelocityBefore> gathered(bodies.size());
+    PointRule relax;
+    relax.use_bias = false;
+    relax.warm_next = gathered.data();
+    solve_points(cp, bodies.data(), relax, nullptr);
+    std::vector<SolverBody> at_rest = bodies;
+    for (SolverBody& b : at_rest) b.vx = b.vy = b.w = 0.0;
+    warm_start_points(cp, at_rest.data(), nullptr);
+    int loaded = 0;
+    for (size_t i = 0; i < bodies.size(); ++i) {
+      EXPECT_EQ(gathered[i].vx, at_rest[i].vx) << simd_path_name(path) << " slot " << i;
+      EXPECT_EQ(gathered[i].vy, at_rest[i].vy) << simd_path_name(path) << " slot " << i;
+      EXPECT_EQ(gathered[i].w, at_rest[i].w) << simd_path_name(path) << " slot " << i;
+      loaded += gathered[i].vy != 0.0;
+    }
+    EXPECT_GT(loaded, static_cast<int>(bodies.size()) / 2) << simd_path_name(path);
+  }
+  ASSERT_TRUE(set_simd_path(SimdPath::kAuto).ok());
+}
+
 TEST(JointLanes, EveryPathGivesTheScalarBits) {
   expect_simd_paths_agree(grid(9), 90);
   // Pins 0.5 m out of place close at the cap: the capped lanes' own arithmetic.
