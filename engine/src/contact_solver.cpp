@@ -207,14 +207,29 @@ double max_turn_rate(double h) {
 // Step 1: applied forces into velocities, v2 = v1 + h M^-1 F, then damping as the decay
 // factor 1 / (1 + h c), which stays stable for any damping. Speeds are clamped. Attractors
 // pull towards where the body is now, so they are the one term worked out every substep.
+// A slot's gathered warm start (solve_group) added to its velocity, and its row cleared. A row
+// no lane wrote is zero and is left alone (adding it would turn a velocity of -0 into +0).
+inline void add_warm_row(VelocityBefore& w, SolverBody& b) {
+  if (w.vx == 0.0 && w.vy == 0.0 && w.w == 0.0) return;
+  b.vx += w.vx;
+  b.vy += w.vy;
+  b.w += w.w;
+  w.vx = w.vy = w.w = 0.0;
+}
+
+// With `warm` (not null), each body's gathered warm start is added after its forces, as
+// add_gathered_warm would add it next.
 void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s, double h,
-                          size_t first, size_t end) {
+                          size_t first, size_t end, VelocityBefore* warm = nullptr) {
   const double max_speed = w.settings.max_linear_speed;
   const bool attract = !w.attractors.empty();
   for (size_t k = first; k < end; ++k) {
     const uint8_t kind = s.drive_kinds[k];
-    if (kind == kNoDrive) continue;
     SolverBody& sb = s.bodies[k + 1];
+    if (kind == kNoDrive) {
+      if (warm != nullptr) add_warm_row(warm[k + 1], sb);
+      continue;
+    }
     // A body under gravity alone is not read for its drive (BodyDrive, kGravityOnly): its
     // accelerations are the tick's gravity_drive, its turn and factors none.
     const BodyDrive& d = kind == kGravityOnly ? s.gravity_drive : s.drives[k];
@@ -249,6 +264,7 @@ void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScr
     sb.vx = vx;
     sb.vy = vy;
     sb.w = av;
+    if (warm != nullptr) add_warm_row(warm[k + 1], sb);
   }
 }
 
@@ -978,18 +994,9 @@ void finalize_bodies(WorldImpl& w, const std::vector<int>& awake, SolverScratch&
   }
 }
 
-// Slots [first, end): the gathered warm start added to each velocity and its row cleared. A row
-// no lane wrote is zero and is left alone (adding it would turn a velocity of -0 into +0).
+// Slots [first, end): the gathered warm start added to each velocity (add_warm_row).
 void add_gathered_warm(SolverScratch& s, size_t first, size_t end) {
-  for (size_t i = first; i < end; ++i) {
-    VelocityBefore& w = s.warm_next[i];
-    if (w.vx == 0.0 && w.vy == 0.0 && w.w == 0.0) continue;
-    SolverBody& b = s.bodies[i];
-    b.vx += w.vx;
-    b.vy += w.vy;
-    b.w += w.w;
-    w.vx = w.vy = w.w = 0.0;
-  }
+  for (size_t i = first; i < end; ++i) add_warm_row(s.warm_next[i], s.bodies[i]);
 }
 
 }  // namespace
@@ -1066,8 +1073,13 @@ void WorldImpl::solve_group(const std::vector<int>& awake, const std::vector<int
     }
     // Applied forces, all from the state at the substep's start (explicit), then constraints.
     apply_spring_forces(h);
-    for_chunks(workers, awake.size(), 256,
-               [&](size_t lo, size_t hi) { integrate_velocities(*this, awake, s, h, lo, hi); });
+    // The gathered warm start goes in with the forces, unless restitution reads the velocities
+    // between the two (track_approach).
+    const bool warm_with_forces = gathered_warm && s.restitution_rows.empty();
+    VelocityBefore* const warm_rows = warm_with_forces ? s.warm_next.data() : nullptr;
+    for_chunks(workers, awake.size(), 256, [&](size_t lo, size_t hi) {
+      integrate_velocities(*this, awake, s, h, lo, hi, warm_rows);
+    });
     if (coloured && !s.restitution_rows.empty()) {
       track_approach_coloured(coloured_contacts, s.bodies.data(), s.velocity_before.data(), 1.0 / h,
                               workers);
@@ -1078,8 +1090,10 @@ void WorldImpl::solve_group(const std::vector<int>& awake, const std::vector<int
     // Later substeps always start from the impulses of the one before.
     if (set.warm_starting || sub > 0) {
       if (gathered_warm) {  // the pins' and the contacts' lanes: gathered by the last relax pass
-        for_chunks(workers, s.bodies.size(), 1024,
-                   [&](size_t lo, size_t hi) { add_gathered_warm(s, lo, hi); });
+        if (!warm_with_forces) {
+          for_chunks(workers, s.bodies.size(), 1024,
+                     [&](size_t lo, size_t hi) { add_gathered_warm(s, lo, hi); });
+        }
         warm_start_joints(workers, false);
       } else {
         warm_start_joints(workers);
