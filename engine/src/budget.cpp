@@ -364,26 +364,39 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   if (slot.size() < bodies.size()) slot.resize(bodies.size(), 0);
   for (int k = 0; k < n; ++k) slot[awake[k]] = k + 1;
   // Whether each awake body is dynamic and holds a joint, and its mass, read once from the
-  // large body records (three of their cache lines), in chunks on the world's threads.
+  // large body records (three of their cache lines), in chunks on the world's threads. In a
+  // world without joints or kinematic bodies every awake body is dynamic and holds none (static
+  // bodies never wake), and the masses are read only if a budget is planned (below).
   std::vector<uint8_t>& dynamic = budget.dynamic;
   std::vector<uint8_t>& jointed = budget.jointed;
   std::vector<double>& body_mass = budget.body_mass;
-  dynamic.resize(n);
-  jointed.resize(n);
   body_mass.resize(n);
   constexpr int kBodiesPerChunk = 1024;
   const int chunks = (n + kBodiesPerChunk - 1) / kBodiesPerChunk;
-  auto read_bodies = [&](int c) {
+  auto read_masses = [&](int c) {
     for (int k = c * kBodiesPerChunk; k < std::min(n, (c + 1) * kBodiesPerChunk); ++k) {
-      const Body& b = bodies[awake[k]];
-      dynamic[k] = b.is_dynamic();
-      jointed[k] = !b.joints.empty();
-      body_mass[k] = b.mass;
+      body_mass[k] = bodies[awake[k]].mass;
     }
   };
-  run_chunks(chunks > 1 ? pool : nullptr, chunks, read_bodies, true);
+  const bool simple = kinematic_bodies == 0 && joints.size() == free_joints.size();
   bool plain = true;
-  for (int k = 0; k < n && plain; ++k) plain = dynamic[k] && !jointed[k];
+  if (simple) {
+    dynamic.assign(n, 1);
+    jointed.assign(n, 0);
+  } else {
+    dynamic.resize(n);
+    jointed.resize(n);
+    auto read_bodies = [&](int c) {
+      for (int k = c * kBodiesPerChunk; k < std::min(n, (c + 1) * kBodiesPerChunk); ++k) {
+        const Body& b = bodies[awake[k]];
+        dynamic[k] = b.is_dynamic();
+        jointed[k] = !b.joints.empty();
+        body_mass[k] = b.mass;
+      }
+    };
+    run_chunks(chunks > 1 ? pool : nullptr, chunks, read_bodies, true);
+    for (int k = 0; k < n && plain; ++k) plain = dynamic[k] && !jointed[k];
+  }
   budget.plain_bodies = plain;
   // A body's position in `awake` if it is there and dynamic; -1 otherwise.
   auto awake_dynamic = [&](int body) {
@@ -447,6 +460,7 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
     }
   }
   if (!more) return false;
+  if (simple) run_chunks(chunks > 1 ? pool : nullptr, chunks, read_masses, true);
   // One-pass islands (see the file comment) need each body's worst point too, unless every
   // contact is within one_pass_give_tolerance. (A tick with no budget to plan makes the test
   // for the whole world from the largest, in solve.)

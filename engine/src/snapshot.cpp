@@ -425,7 +425,11 @@ Status World::restore(const WorldSnapshot& s) {
   w.move_buffer = s.move_buffer;
   w.attractors = s.attractors;
   w.body_count = 0;
-  for (const Body& b : w.bodies) w.body_count += b.alive ? 1 : 0;
+  w.kinematic_bodies = 0;
+  for (const Body& b : w.bodies) {
+    w.body_count += b.alive ? 1 : 0;
+    w.kinematic_bodies += b.alive && b.type == BodyType::kKinematic ? 1 : 0;
+  }
   w.shape_count = 0;
   for (const Shape& sh : w.shapes) w.shape_count += sh.alive ? 1 : 0;
   // The mass sums are derived: recomputed here, then the body's recorded mass fields are kept

@@ -234,6 +234,7 @@ Result<BodyId> World::create_body(const BodyDef& def) {
   w.update_mass(bi);
   w.set_awake_flag(bi, def.type != BodyType::kStatic && def.awake);
   ++w.body_count;
+  w.kinematic_bodies += def.type == BodyType::kKinematic;
   return w.body_id(bi);
 }
 
@@ -269,6 +270,7 @@ Status World::destroy_body(BodyId id) {
   b.shapes.clear();
   w.free_bodies.push_back(bi);
   --w.body_count;
+  w.kinematic_bodies -= b.type == BodyType::kKinematic;
   return {};
 }
 

@@ -96,6 +96,7 @@ class WorldImpl {
   PairSet contact_pairs;
   std::vector<int> awake_bodies;  // unordered set (swap-remove); sorted when a step uses it
   int body_count = 0;
+  int kinematic_bodies = 0;  // alive ones (plan_budgets)
   int shape_count = 0;
 
   // The running sums behind each body's mass (update_mass), indexed like `bodies`. They are

@@ -707,6 +707,37 @@ TEST(WorldTest, PlacedBoxesAreTheShapesBoxesAtTheirBodiesTransforms) {
   EXPECT_EQ(copy.snapshot().state_hash, w.snapshot().state_hash);
 }
 
+// The budgets skip reading the bodies' records in a world without joints or kinematic bodies
+// (plan_budgets), trusting WorldImpl::kinematic_bodies: it counts the alive kinematic bodies
+// through creation, destruction (a freed slot reused by another type) and restore. With a
+// kinematic body awake the tick is no one-pass tick: the pile beside it keeps its passes.
+TEST(WorldTest, KinematicBodiesAreCountedThroughEditsAndRestore) {
+  World w;
+  add_ground(w);
+  auto count = [](const World& world) {
+    int n = 0;
+    for (const Body& b : world.impl().bodies) n += b.alive && b.type == BodyType::kKinematic;
+    EXPECT_EQ(world.impl().kinematic_bodies, n);
+    return n;
+  };
+  const BodyId k1 = add_box(w, Vec2(-4.0, 3.0), 0.5, 0.0, 0.6, BodyType::kKinematic);
+  add_box(w, Vec2(4.0, 3.0), 0.5, 0.0, 0.6, BodyType::kKinematic);
+  add_box(w, Vec2(0.0, 0.5), 0.5);
+  EXPECT_EQ(count(w), 2);
+  ASSERT_TRUE(w.destroy_body(k1).ok());
+  EXPECT_EQ(count(w), 1);
+  add_box(w, Vec2(0.0, 1.6), 0.5);  // reuses k1's slot as a dynamic body
+  EXPECT_EQ(count(w), 1);
+  for (int t = 0; t < 30; ++t) w.step();
+  EXPECT_EQ(w.metrics().max_velocity_iterations, w.impl().settings.velocity_iterations);
+  World copy;
+  ASSERT_TRUE(copy.restore(w.snapshot()).ok());
+  EXPECT_EQ(count(copy), 1);
+  copy.step();
+  w.step();
+  EXPECT_EQ(copy.snapshot().state_hash, w.snapshot().state_hash);
+}
+
 // A kinematic platform moving sideways carries a box resting on it (friction), and is not
 // pushed by it (infinite mass). The box starts at rest and friction accelerates it at mu g,
 // so it ends v^2 / (2 mu g) = 1 / 12 m behind the platform; 1 cm covers the discrete start.
