@@ -19,6 +19,10 @@ void WorldImpl::update_sleep(const std::vector<int>& awake) {
   const int chunks = (n + kBodiesPerChunk - 1) / kBodiesPerChunk;
   WorkerPool* const timers = chunks > 1 ? pool : nullptr;
   if (!settings.enable_sleep) {
+    // Once cleared they stay zero: only a tick with sleep on, or a restore, sets a timer, and
+    // a body that wakes starts from zero (set_awake_flag).
+    if (awake_timers_zero) return;
+    awake_timers_zero = true;
     auto clear = [&](int c) {
       for (int k = c * kBodiesPerChunk; k < std::min(n, (c + 1) * kBodiesPerChunk); ++k) {
         bodies[awake[k]].sleep_time = 0.0;
@@ -27,6 +31,7 @@ void WorldImpl::update_sleep(const std::vector<int>& awake) {
     run_chunks(timers, chunks, clear, true);
     return;
   }
+  awake_timers_zero = false;
   const double h = settings.dt;
   const double lin_tol2 = settings.linear_sleep_tolerance * settings.linear_sleep_tolerance;
   const double ang_tol2 = settings.angular_sleep_tolerance * settings.angular_sleep_tolerance;

@@ -97,6 +97,9 @@ class WorldImpl {
   std::vector<int> awake_bodies;  // unordered set (swap-remove); sorted when a step uses it
   int body_count = 0;
   int kinematic_bodies = 0;  // alive ones (plan_budgets)
+  // Every awake body's rest timer is zero (update_sleep with sleep off cleared them, and
+  // nothing has set one since). Not state: a restored world starts without it.
+  bool awake_timers_zero = false;
   int shape_count = 0;
 
   // The running sums behind each body's mass (update_mass), indexed like `bodies`. They are

@@ -738,6 +738,39 @@ TEST(WorldTest, KinematicBodiesAreCountedThroughEditsAndRestore) {
   EXPECT_EQ(copy.snapshot().state_hash, w.snapshot().state_hash);
 }
 
+// With sleep off every awake body's rest timer is zero after a tick, whether the world just
+// turned sleep off with its bodies resting or was restored from a snapshot taken mid-rest
+// (update_sleep clears the timers once and then trusts them to stay zero).
+TEST(WorldTest, RestTimersAreZeroWithSleepOffAfterATurnOrARestore) {
+  World w;
+  add_ground(w);
+  const BodyId box = add_box(w, Vec2(0.0, 0.5), 0.5);
+  for (int t = 0; t < 20; ++t) w.step();  // resting, not yet asleep (0.5 s to sleep)
+  auto timer = [&](const World& world) {
+    return world.impl().bodies[world.impl().body_index(box)].sleep_time;
+  };
+  ASSERT_GT(timer(w), 0.0);
+  const WorldSnapshot mid_rest = w.snapshot();
+  const WorldSettings on = w.settings();
+  WorldSettings off = on;
+  off.enable_sleep = false;
+  ASSERT_TRUE(w.set_settings(off).ok());
+  w.step();
+  EXPECT_EQ(timer(w), 0.0);
+  w.step();
+  EXPECT_EQ(timer(w), 0.0);
+  // Restored over itself (its timers cleared once already), then sleep off again.
+  ASSERT_TRUE(w.restore(mid_rest).ok());
+  ASSERT_GT(timer(w), 0.0);
+  ASSERT_TRUE(w.set_settings(off).ok());
+  w.step();
+  EXPECT_EQ(timer(w), 0.0);
+  // Back on, the timers run again.
+  ASSERT_TRUE(w.set_settings(on).ok());
+  w.step();
+  EXPECT_GT(timer(w), 0.0);
+}
+
 // A kinematic platform moving sideways carries a box resting on it (friction), and is not
 // pushed by it (infinite mass). The box starts at rest and friction accelerates it at mu g,
 // so it ends v^2 / (2 mu g) = 1 / 12 m behind the platform; 1 cm covers the discrete start.
