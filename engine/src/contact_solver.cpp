@@ -204,9 +204,6 @@ double max_turn_rate(double h) {
   return 3.14159265358979323846 / h;
 }
 
-// Step 1: applied forces into velocities, v2 = v1 + h M^-1 F, then damping as the decay
-// factor 1 / (1 + h c), which stays stable for any damping. Speeds are clamped. Attractors
-// pull towards where the body is now, so they are the one term worked out every substep.
 // A slot's gathered warm start (solve_group) added to its velocity, and its row cleared. A row
 // no lane wrote is zero and is left alone (adding it would turn a velocity of -0 into +0).
 inline void add_warm_row(VelocityBefore& w, SolverBody& b) {
@@ -217,6 +214,9 @@ inline void add_warm_row(VelocityBefore& w, SolverBody& b) {
   w.vx = w.vy = w.w = 0.0;
 }
 
+// Step 1: applied forces into velocities, v2 = v1 + h M^-1 F, then damping as the decay
+// factor 1 / (1 + h c), which stays stable for any damping. Speeds are clamped. Attractors
+// pull towards where the body is now, so they are the one term worked out every substep.
 // With `warm` (not null), each body's gathered warm start is added after its forces, as
 // add_gathered_warm would add it next.
 void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s, double h,

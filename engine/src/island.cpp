@@ -14,7 +14,7 @@ void WorldImpl::update_sleep(const std::vector<int>& awake) {
   if (awake.empty()) return;
   const int n = static_cast<int>(awake.size());
   // The rest timers, each body its own, in chunks of bodies (on the world's threads when there
-  // are many): every awake body's record is read and written once a tick.
+  // are many): with sleep on, every awake body's record is read and written once a tick.
   constexpr int kBodiesPerChunk = 1024;
   const int chunks = (n + kBodiesPerChunk - 1) / kBodiesPerChunk;
   WorkerPool* const timers = chunks > 1 ? pool : nullptr;
