@@ -1,5 +1,6 @@
-// A check the contact and joint lane tests share: within a colour, every body the lanes write
-// is written by one lane only, and only bodies of finite mass are written.
+// Checks the contact and joint lane tests share: within a colour, every body the lanes write
+// is written by one lane only, and only bodies of finite mass are written; a relax pass's
+// gathered warm start is what a warm-start pass applies to bodies at rest.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -32,6 +33,21 @@ void expect_each_body_written_once_per_colour(const std::vector<Block, Allocator
       }
     }
   }
+}
+
+// `gathered` (LaneRule::warm_next, PointRule::warm_next) equals, bit for bit, the velocities a
+// warm-start pass gave `at_rest` (bodies at rest before it), and most rows carry a load.
+inline void expect_gathered_warm_start(const std::vector<VelocityBefore>& gathered,
+                                       const std::vector<SolverBody>& at_rest, const char* path) {
+  ASSERT_EQ(gathered.size(), at_rest.size());
+  int loaded = 0;
+  for (size_t i = 0; i < at_rest.size(); ++i) {
+    EXPECT_EQ(gathered[i].vx, at_rest[i].vx) << path << " slot " << i;
+    EXPECT_EQ(gathered[i].vy, at_rest[i].vy) << path << " slot " << i;
+    EXPECT_EQ(gathered[i].w, at_rest[i].w) << path << " slot " << i;
+    loaded += gathered[i].vy != 0.0;
+  }
+  EXPECT_GT(loaded, static_cast<int>(at_rest.size()) / 2) << path;
 }
 
 }  // namespace fulcrum::testing
