@@ -35,11 +35,14 @@ void expect_each_body_written_once_per_colour(const std::vector<Block, Allocator
   }
 }
 
-// `gathered` (LaneRule::warm_next, PointRule::warm_next) equals, bit for bit, the velocities a
-// warm-start pass gave `at_rest` (bodies at rest before it), and most rows carry a load.
-inline void expect_gathered_warm_start(const std::vector<VelocityBefore>& gathered,
-                                       const std::vector<SolverBody>& at_rest, const char* path) {
+// `gathered` (LaneRule::warm_next, PointRule::warm_next) equals, bit for bit, the velocities
+// `warm` (a warm-start pass) gives `bodies` set at rest, and most rows carry a load.
+template <class WarmFn>
+void expect_gathered_warm_start(const std::vector<VelocityBefore>& gathered,
+                                std::vector<SolverBody> at_rest, WarmFn warm, const char* path) {
   ASSERT_EQ(gathered.size(), at_rest.size());
+  for (SolverBody& b : at_rest) b.vx = b.vy = b.w = 0.0;
+  warm(at_rest.data());
   int loaded = 0;
   for (size_t i = 0; i < at_rest.size(); ++i) {
     EXPECT_EQ(gathered[i].vx, at_rest[i].vx) << path << " slot " << i;
