@@ -315,6 +315,20 @@ FULCRUM_LANE_INLINE const double* motion_row(const SolverBody& b) {
   return &b.vx + 4;
 }
 
+// P applied to body B at rb and -P to body A at ra: velocities (va, wa), (vb, wb) of a group of
+// lanes, whatever rows they come from (LaneBodies, LaneWarmRows).
+template <class V>
+FULCRUM_LANE_INLINE void apply_lane_impulse(V& vax, V& vay, V& wa, V& vbx, V& vby, V& wb, V ima,
+                                            V iia, V imb, V iib, V rax, V ray, V rbx, V rby, V px,
+                                            V py) {
+  vax -= ima * px;
+  vay -= ima * py;
+  wa -= iia * (rax * py - ray * px);
+  vbx += imb * px;
+  vby += imb * py;
+  wb += iib * (rbx * py - rby * px);
+}
+
 // The velocities of a group of lanes' bodies, loaded from and stored to the solver bodies.
 // Block is a ContactBlock or a PointBlock (joint_kernel.h): anything with ia, ib, write_a and
 // write_b per lane.
@@ -362,12 +376,7 @@ struct LaneBodies {
   // P applied to B at rb and -P to A at ra.
   FULCRUM_LANE_INLINE void apply(V ima, V iia, V imb, V iib, V rax, V ray, V rbx, V rby, V px,
                                  V py) {
-    vax -= ima * px;
-    vay -= ima * py;
-    wa -= iia * (rax * py - ray * px);
-    vbx += imb * px;
-    vby += imb * py;
-    wb += iib * (rbx * py - rby * px);
+    apply_lane_impulse(vax, vay, wa, vbx, vby, wb, ima, iia, imb, iib, rax, ray, rbx, rby, px, py);
   }
 };
 
@@ -404,12 +413,8 @@ struct LaneWarmRows {
   // P added to B at rb and -P to A at ra, as LaneBodies::apply adds it to the velocities.
   FULCRUM_LANE_INLINE void apply(V ima, V iia, V imb, V iib, V rax, V ray, V rbx, V rby, V px,
                                  V py) {
-    a[0] -= ima * px;
-    a[1] -= ima * py;
-    a[2] -= iia * (rax * py - ray * px);
-    b[0] += imb * px;
-    b[1] += imb * py;
-    b[2] += iib * (rbx * py - rby * px);
+    apply_lane_impulse(a[0], a[1], a[2], b[0], b[1], b[2], ima, iia, imb, iib, rax, ray, rbx, rby,
+                       px, py);
   }
 
   FULCRUM_LANE_INLINE void store() {
@@ -418,22 +423,29 @@ struct LaneWarmRows {
   }
 };
 
-// Warm start: the accumulated impulses P = lambda_n n + lambda_t t, t = (ny, -nx).
+// The accumulated impulses P = lambda_n n + lambda_t t, t = (ny, -nx), of a group of lanes'
+// points, applied to `to` (LaneBodies: a warm start; LaneWarmRows: the next one, gathered).
+template <class V, class To>
+FULCRUM_LANE_INLINE void apply_warm_points(const ContactBlock& k, int l0, To& to, V ima, V iia,
+                                           V imb, V iib, V nx, V ny) {
+  using L = Lane<V>;
+#pragma GCC unroll 2
+  for (const LanePoint& p : k.points) {
+    const V ni = L::load(p.normal_impulse + l0), ti = L::load(p.tangent_impulse + l0);
+    const V px = ni * nx + ti * ny;
+    const V py = ni * ny - ti * nx;
+    to.apply(ima, iia, imb, iib, L::load(p.rax + l0), L::load(p.ray + l0), L::load(p.rbx + l0),
+             L::load(p.rby + l0), px, py);
+  }
+}
+
+// Warm start: the accumulated impulses applied to the bodies.
 template <class V>
 FULCRUM_LANE_INLINE void warm_lanes(ContactBlock& k, int l0, SolverBody* bodies) {
   using L = Lane<V>;
   LaneBodies<V> v(k, l0, bodies);
-  const V ima = v.ima_row, iia = L::load(k.inv_inertia_a + l0);
-  const V imb = v.imb_row, iib = L::load(k.inv_inertia_b + l0);
-  const V nx = L::load(k.nx + l0), ny = L::load(k.ny + l0);
-#pragma GCC unroll 2
-  for (const LanePoint& p : k.points) {
-    V ni = L::load(p.normal_impulse + l0), ti = L::load(p.tangent_impulse + l0);
-    V px = ni * nx + ti * ny;
-    V py = ni * ny - ti * nx;
-    v.apply(ima, iia, imb, iib, L::load(p.rax + l0), L::load(p.ray + l0), L::load(p.rbx + l0),
-            L::load(p.rby + l0), px, py);
-  }
+  apply_warm_points<V>(k, l0, v, v.ima_row, L::load(k.inv_inertia_a + l0), v.imb_row,
+                       L::load(k.inv_inertia_b + l0), L::load(k.nx + l0), L::load(k.ny + l0));
   v.store(k, l0, bodies);
 }
 
@@ -443,16 +455,8 @@ FULCRUM_LANE_INLINE void warm_lanes(ContactBlock& k, int l0, SolverBody* bodies)
 template <class V>
 FULCRUM_LANE_INLINE void gather_warm_lanes(const ContactBlock& k, int l0, VelocityBefore* rows,
                                            V ima, V iia, V imb, V iib, V nx, V ny) {
-  using L = Lane<V>;
   LaneWarmRows<V> w(k, l0, rows);
-#pragma GCC unroll 2
-  for (const LanePoint& p : k.points) {
-    const V ni = L::load(p.normal_impulse + l0), ti = L::load(p.tangent_impulse + l0);
-    const V px = ni * nx + ti * ny;
-    const V py = ni * ny - ti * nx;
-    w.apply(ima, iia, imb, iib, L::load(p.rax + l0), L::load(p.ray + l0), L::load(p.rbx + l0),
-            L::load(p.rby + l0), px, py);
-  }
+  apply_warm_points<V>(k, l0, w, ima, iia, imb, iib, nx, ny);
   w.store();
 }
 

@@ -167,7 +167,7 @@ struct SolverScratch {
   std::vector<int> restitution_rows;  // rows with restitution > 0
   // With restitution rows: each slot's velocity before this substep's forces.
   std::vector<VelocityBefore> velocity_before;
-  std::vector<VelocityBefore> warm_next;  // the contacts' next warm start, per slot (solve_group)
+  std::vector<VelocityBefore> warm_next;  // the lanes' next warm start, per slot (solve_group)
   std::vector<int> joints;                // awake joints, by id (after solve: every group's)
   std::vector<JointRow> joint_rows;       // constraints
   // Each joint row's slots and kind, written beside it: colour_points reads only these, 12
