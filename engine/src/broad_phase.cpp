@@ -25,22 +25,62 @@ namespace fulcrum {
 // the margin would keep it in its box for a tick or two at most, while every tick it widens the
 // box and brings pairs beyond contact reach. In a tumbling pile nearly every box moves each
 // tick whatever its margin (the tumbler's 1,923 of 2,029 at the margin by size alone).
-double WorldImpl::box_reach(const Shape& s, const Vec2& travel) const {
+double WorldImpl::box_reach(int si, BodyType body_type, const Vec2& travel) const {
   const double speculative = settings.speculative_distance;
-  if (bodies[s.body].type == BodyType::kStatic) return speculative;
+  if (body_type == BodyType::kStatic) return speculative;
   constexpr double kMarginPerHalfDiagonal = 0.125;
-  const AABB local = compute_aabb(s.geometry, Transform{});
-  const double half_diagonal = 0.5 * length(local.upper - local.lower);
+  const double half_diagonal = shape_outlines[si].half_diagonal;
   const double margin = std::min(settings.aabb_margin, kMarginPerHalfDiagonal * half_diagonal);
   const double t = std::max(std::abs(travel.x()), std::abs(travel.y()));
   return speculative + (t > 0.5 * margin ? 0.0 : margin);
 }
 
+void WorldImpl::derive_shape(int si) {
+  if (shape_thickness.size() < shapes.size()) shape_thickness.resize(shapes.size(), 0.0);
+  if (shape_outlines.size() < shapes.size()) shape_outlines.resize(shapes.size());
+  const Geometry& g = shapes[si].geometry;
+  shape_thickness[si] = geometry_thickness(g);
+  ShapeOutline& o = shape_outlines[si];
+  o = ShapeOutline{};
+  o.type = geometry_type(g);
+  if (const auto* c = std::get_if<Circle>(&g)) {
+    o.radius = c->radius;
+    o.points[0] = c->center;
+    o.count = 1;
+  } else if (const auto* k = std::get_if<Capsule>(&g)) {
+    o.radius = k->radius;
+    o.points = {k->center1, k->center2};
+    o.count = 2;
+  } else if (const auto* e = std::get_if<Segment>(&g)) {
+    o.points = {e->point1, e->point2};
+    o.count = 2;
+  } else if (const auto* p = std::get_if<Polygon>(&g)) {
+    o.radius = p->radius;
+    if (p->count >= 1 && p->count <= static_cast<int>(o.points.size())) {
+      std::copy_n(p->vertices.begin(), p->count, o.points.begin());
+      o.count = p->count;
+    }
+  }
+  const AABB local = compute_aabb(g, Transform{});
+  o.half_diagonal = 0.5 * length(local.upper - local.lower);
+}
+
+AABB WorldImpl::shape_box(int si, const Transform& xf) const {
+  const ShapeOutline& o = shape_outlines[si];
+  if (o.count == 0) return compute_aabb(shapes[si].geometry, xf);
+  if (o.type == ShapeType::kSegment) {
+    const Vec2 a = xf.apply(o.points[0]);
+    const Vec2 b = xf.apply(o.points[1]);
+    return AABB{a.cwiseMin(b), a.cwiseMax(b)};
+  }
+  return box_around(o.points.data(), o.count, o.radius, xf);
+}
+
 void WorldImpl::create_proxy(int si) {
   Shape& s = shapes[si];
   const Body& b = bodies[s.body];
-  const AABB box = compute_aabb(s.geometry, b.xf);
-  AABB fat = box.fattened(box_reach(s, settings.dt * b.v));
+  const AABB box = shape_box(si, b.xf);
+  AABB fat = box.fattened(box_reach(si, b.type, settings.dt * b.v));
   s.proxy = tree_of(s).create_proxy(fat, static_cast<uint64_t>(si), s.filter.category_bits,
                                     s.filter.mask_bits);
   if (fat_boxes.size() < shapes.size()) fat_boxes.resize(shapes.size());
@@ -73,14 +113,13 @@ void WorldImpl::find_moves(int bi, F&& moved) {
   const Body& b = bodies[bi];
   Vec2 travel = settings.dt * b.v;
   for (int si : b.shapes) {
-    const Shape& s = shapes[si];
     // The box now and where it will be after a tick at this velocity.
-    AABB swept = compute_aabb(s.geometry, b.xf);
+    AABB swept = shape_box(si, b.xf);
     place_box(si, swept);
     swept.lower += travel.cwiseMin(Vec2::Zero());
     swept.upper += travel.cwiseMax(Vec2::Zero());
     if (fat_boxes[si].contains(swept.fattened(settings.speculative_distance))) continue;
-    moved(si, swept.fattened(box_reach(s, travel)));
+    moved(si, swept.fattened(box_reach(si, b.type, travel)));
   }
 }
 

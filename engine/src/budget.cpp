@@ -196,11 +196,6 @@ double geometry_thickness(const Geometry& geometry) {
   return 0.0;
 }
 
-void WorldImpl::set_shape_thickness(int shape) {
-  if (shape_thickness.size() < shapes.size()) shape_thickness.resize(shapes.size(), 0.0);
-  shape_thickness[shape] = geometry_thickness(shapes[shape].geometry);
-}
-
 int budget_iterations(int iterations, int substeps, int budget) {
   return std::max(1, iterations * substeps / budget);
 }

@@ -235,7 +235,7 @@ void WorldImpl::fill_awake_boxes() {
       const Body& b = bodies[awake_bodies[k]];
       for (int si : b.shapes) {
         AwakeBox& r = awake_boxes[si];
-        if (!r.placed) place_box(si, compute_aabb(shapes[si].geometry, b.xf));
+        if (!r.placed) place_box(si, shape_box(si, b.xf));
         r.v = b.v;
         r.call = collide_calls;
       }

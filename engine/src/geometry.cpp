@@ -520,16 +520,12 @@ AABB compute_aabb(const Geometry& g, const Transform& xf) {
   switch (geometry_type(g)) {
     case ShapeType::kCircle: {
       const Circle& c = std::get<Circle>(g);
-      Vec2 p = xf.apply(c.center);
-      Vec2 r(c.radius, c.radius);
-      return AABB{p - r, p + r};
+      return box_around(&c.center, 1, c.radius, xf);
     }
     case ShapeType::kCapsule: {
       const Capsule& c = std::get<Capsule>(g);
-      Vec2 a = xf.apply(c.center1);
-      Vec2 b = xf.apply(c.center2);
-      Vec2 r(c.radius, c.radius);
-      return AABB{a.cwiseMin(b) - r, a.cwiseMax(b) + r};
+      const Vec2 ends[2] = {c.center1, c.center2};
+      return box_around(ends, 2, c.radius, xf);
     }
     case ShapeType::kSegment: {
       const Segment& s = std::get<Segment>(g);
@@ -540,15 +536,7 @@ AABB compute_aabb(const Geometry& g, const Transform& xf) {
     case ShapeType::kPolygon: {
       const Polygon& p = std::get<Polygon>(g);
       if (p.count <= 0) return AABB{xf.p, xf.p};
-      Vec2 lower = xf.apply(p.vertices[0]);
-      Vec2 upper = lower;
-      for (int i = 1; i < p.count; ++i) {
-        Vec2 v = xf.apply(p.vertices[i]);
-        lower = lower.cwiseMin(v);
-        upper = upper.cwiseMax(v);
-      }
-      Vec2 r(p.radius, p.radius);
-      return AABB{lower - r, upper + r};
+      return box_around(p.vertices.data(), p.count, p.radius, xf);
     }
   }
   return AABB{};

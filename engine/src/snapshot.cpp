@@ -449,7 +449,7 @@ Status World::restore(const WorldSnapshot& s) {
     sh.proxy = sh.alive ? w.tree_of(sh).create_proxy(s.shape_boxes[si], si, sh.filter.category_bits,
                                                      sh.filter.mask_bits)
                         : kNullIndex;
-    if (sh.alive) w.set_shape_thickness(static_cast<int>(si));
+    if (sh.alive) w.derive_shape(static_cast<int>(si));
   }
   std::unique_ptr<WorldImpl> previous = std::move(impl_);
   impl_ = std::move(fresh);

@@ -365,7 +365,7 @@ int add_shape(WorldImpl& w, int bi, const ShapeDef& def) {
   s.is_sensor = def.is_sensor;
   s.user_data = def.user_data;
   w.bodies[bi].shapes.push_back(si);
-  w.set_shape_thickness(si);
+  w.derive_shape(si);
   w.create_proxy(si);
   ++w.shape_count;
   ++w.edit_work;

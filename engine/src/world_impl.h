@@ -4,6 +4,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
@@ -113,11 +114,24 @@ class WorldImpl {
   };
   std::vector<MassSums> mass_sums;
   static void add_mass_terms(MassSums& sums, const Shape& shape);
-  // Each shape's thickness (geometry_thickness), indexed like `shapes`, for the contact
-  // budgets. Derived from the geometry, which never changes, so not state: set when a shape is
-  // added and recomputed by restore.
+  // What each shape's geometry gives, indexed like `shapes`. The geometry never changes, so
+  // none of it is state: derive_shape sets it when a shape is added and restore recomputes it.
+  // The thickness (geometry_thickness), for the contact budgets.
   std::vector<double> shape_thickness;
-  void set_shape_thickness(int shape);
+  // The outline: what the shape's box at a transform needs (shape_box), packed apart from the
+  // shape record, whose geometry spans six cache lines. Every tick boxes every awake shape, and
+  // in a large pile most of that time was waiting on those lines.
+  struct ShapeOutline {
+    double radius = 0.0;
+    double half_diagonal = 0.0;  // of the box in the shape's own frame (box_reach)
+    int count = 0;               // points; 0: a polygon with more than fit, read from the shape
+    ShapeType type = ShapeType::kCircle;
+    std::array<Vec2, 4> points;  // circle: centre; capsule, segment: ends; polygon: vertices
+  };
+  std::vector<ShapeOutline> shape_outlines;
+  void derive_shape(int shape);
+  // The shape's box at xf: compute_aabb's, bit for bit, from the outline.
+  AABB shape_box(int shape, const Transform& xf) const;
   // Per contact id, what the contact budgets read (budget.cpp), computed by press_contact as
   // collide refreshes each contact of the awake bodies: the worst point's predicted compression
   // over the thinner shape's thickness, and the same per newton of load. Scratch, not state.
@@ -170,7 +184,7 @@ class WorldImpl {
   void place_box(int si, const AABB& box) {
     AwakeBox& r = awake_boxes[si];
     r.box = box;
-    r.type = geometry_type(shapes[si].geometry);
+    r.type = shape_outlines[si].type;
     r.placed = true;
   }
   uint64_t collide_calls = 0;
@@ -232,7 +246,7 @@ class WorldImpl {
   void create_proxy(int shape);
   // How far past a shape its fat box reaches: the speculative distance and a margin (none for
   // a shape travelling `travel` a tick, dt v, of more than half its margin).
-  double box_reach(const Shape& s, const Vec2& travel) const;
+  double box_reach(int shape, BodyType body_type, const Vec2& travel) const;
   void destroy_proxy(int shape);
   // Re-fits a body's moved shapes in the tree at once (edits).
   void synchronize_shapes(int body);

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <iterator>
 #include <vector>
 
@@ -736,6 +737,76 @@ TEST(WorldTest, KinematicBodiesAreCountedThroughEditsAndRestore) {
   copy.step();
   w.step();
   EXPECT_EQ(copy.snapshot().state_hash, w.snapshot().state_hash);
+}
+
+// The broad phase boxes each shape from its packed outline (WorldImpl::shape_box), not from
+// its geometry: the box must be compute_aabb's to the last bit for every kind of shape (a
+// polygon with more vertices than the outline holds is read from the shape), for a slot reused
+// by another kind of shape, and after a restore, which derives the outlines again.
+TEST(WorldTest, ShapeOutlinesBoxEveryShapeAsItsGeometryDoes) {
+  World w;
+  BodyDef def;
+  def.type = BodyType::kStatic;
+  const BodyId body = *w.create_body(def);
+  Polygon rounded;
+  const Vec2 triangle[] = {Vec2(-0.3, -0.2), Vec2(0.4, -0.1), Vec2(0.1, 0.5)};
+  ASSERT_TRUE(make_polygon(triangle, 0.05, &rounded).ok());
+  Polygon hexagon;
+  std::vector<Vec2> six;
+  for (int i = 0; i < 6; ++i) {
+    const Rot q = Rot::from_angle(i * 3.14159265358979323846 / 3.0);
+    six.push_back(Vec2(0.7 * q.c + 0.2, 0.7 * q.s - 0.1));
+  }
+  ASSERT_TRUE(make_polygon(six, 0.0, &hexagon).ok());
+  const std::vector<Geometry> kinds = {
+      Circle{Vec2(0.3, -0.2), 0.4},
+      Capsule{Vec2(-0.5, 0.1), Vec2(0.6, -0.2), 0.15},
+      Segment{Vec2(-1.0, -0.0), Vec2(1.0, -0.0)},  // -0 corners at the origin
+      make_offset_box(0.5, 0.25, Vec2(0.1, 0.2), 0.3),
+      rounded,
+      hexagon,
+  };
+  std::vector<ShapeId> ids;
+  for (const Geometry& g : kinds) {
+    ShapeDef sd;
+    sd.geometry = g;
+    ids.push_back(*w.create_shape(body, sd));
+  }
+  // The hexagon's slot reused by a circle and the circle's by a hexagon (freed slots are
+  // taken last first).
+  ASSERT_TRUE(w.destroy_shape(ids[0]).ok());
+  ASSERT_TRUE(w.destroy_shape(ids[5]).ok());
+  for (const Geometry& g : {Geometry(Circle{Vec2::Zero(), 0.2}), Geometry(hexagon)}) {
+    ShapeDef sd;
+    sd.geometry = g;
+    ASSERT_TRUE(w.create_shape(body, sd).ok());
+  }
+  World restored;
+  ASSERT_TRUE(restored.restore(w.snapshot()).ok());
+  auto same_bits = [](const AABB& a, const AABB& b) {
+    const double x[] = {a.lower.x(), a.lower.y(), a.upper.x(), a.upper.y()};
+    const double y[] = {b.lower.x(), b.lower.y(), b.upper.x(), b.upper.y()};
+    return std::memcmp(x, y, sizeof(x)) == 0;
+  };
+  int checked = 0;
+  for (const World* world : {&w, &restored}) {
+    const WorldImpl& impl = world->impl();
+    for (size_t si = 0; si < impl.shapes.size(); ++si) {
+      if (!impl.shapes[si].alive) continue;
+      // At the origin (-0, -0) unturned a segment along x has -0 corners.
+      for (const Transform& xf :
+           {Transform{Vec2(-0.0, -0.0), Rot{}}, Transform{Vec2(-3.25, 1.5), Rot::from_angle(0.7)},
+            Transform{Vec2(2.0, -0.5), Rot::from_angle(-2.1)},
+            Transform{Vec2(0.25, 4.0), Rot::from_angle(3.14159265358979323846)}}) {
+        const AABB want = compute_aabb(impl.shapes[si].geometry, xf);
+        EXPECT_TRUE(same_bits(impl.shape_box(static_cast<int>(si), xf), want))
+            << "shape " << si << " (" << shape_type_name(geometry_type(impl.shapes[si].geometry))
+            << ") at angle " << xf.q.angle();
+        ++checked;
+      }
+    }
+  }
+  EXPECT_EQ(checked, 2 * 6 * 4);
 }
 
 // With sleep off every awake body's rest timer is zero after a tick, whether the world just

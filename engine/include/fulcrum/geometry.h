@@ -102,6 +102,20 @@ MassData compute_mass(const Geometry& g, double density);  // segments have no m
 
 AABB compute_aabb(const Geometry& g, const Transform& xf);
 
+// The box around count >= 1 points placed by xf, widened by radius: a circle's (one point), a
+// capsule's (two) and a polygon's. compute_aabb and the broad phase's packed outlines share it.
+inline AABB box_around(const Vec2* points, int count, double radius, const Transform& xf) {
+  Vec2 lower = xf.apply(points[0]);
+  Vec2 upper = lower;
+  for (int i = 1; i < count; ++i) {
+    Vec2 v = xf.apply(points[i]);
+    lower = lower.cwiseMin(v);
+    upper = upper.cwiseMax(v);
+  }
+  Vec2 r(radius, radius);
+  return AABB{lower - r, upper + r};
+}
+
 // A ray from origin to origin + max_fraction * translation.
 struct RayCastInput {
   Vec2 origin = Vec2::Zero();
