@@ -36,11 +36,11 @@ WorkerPool::~WorkerPool() {
 }
 
 void WorkerPool::begin_busy() {
-  busy_.store(true, std::memory_order_relaxed);
+  if (busy_depth_++ == 0) busy_.store(true, std::memory_order_relaxed);
 }
 
 void WorkerPool::end_busy() {
-  busy_.store(false, std::memory_order_relaxed);
+  if (--busy_depth_ == 0) busy_.store(false, std::memory_order_relaxed);
 }
 
 void WorkerPool::run(int chunks, ChunkFn fn, void* ctx) {

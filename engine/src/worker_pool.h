@@ -30,8 +30,11 @@ class WorkerPool {
 
   int threads() const { return static_cast<int>(workers_.size()) + 1; }
 
+  // Workers spin between stages from begin_busy() to the matching end_busy(); spans nest (a
+  // stage's own span inside a step's keeps them spinning until the step's ends).
   void begin_busy();
   void end_busy();
+  bool busy() const { return busy_.load(std::memory_order_relaxed); }
 
   // Runs fn(ctx, i) for every i in [0, chunks) and returns when all are done.
   using ChunkFn = void (*)(void* ctx, int chunk);
@@ -65,6 +68,7 @@ class WorkerPool {
   std::atomic<ChunkFn> fn_{nullptr};
   std::atomic<void*> ctx_{nullptr};
   std::atomic<bool> busy_{false};
+  int busy_depth_ = 0;  // begin_busy() calls not yet ended (the caller's thread alone)
   std::atomic<bool> stop_{false};
 };
 

@@ -659,6 +659,18 @@ Status World::try_step() {
   WorldImpl& w = *impl_;
   w.pool = pool_.get();
   w.contact_limit = contact_limit_;
+  // The workers spin from the first stage to the last: a tick's stages outside the solver
+  // (the broad phase, collide, the budgets, the boxes) would otherwise wake them from sleep
+  // one by one.
+  struct Busy {
+    WorkerPool* pool;
+    explicit Busy(WorkerPool* p) : pool(p) {
+      if (pool != nullptr) pool->begin_busy();
+    }
+    ~Busy() {
+      if (pool != nullptr) pool->end_busy();
+    }
+  } busy(w.pool);
   // The broad phase first: it is the one stage that can refuse the tick, and it changes
   // nothing when it does.
   if (int64_t would = w.update_pairs(); would > 0) {

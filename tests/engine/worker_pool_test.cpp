@@ -70,6 +70,22 @@ TEST(WorkerPool, StagesAfterSleepAndDestructionWhileAsleep) {
   EXPECT_EQ(sum.load(), 2 * 55);
 }
 
+// Busy spans nest: a stage's own span (run_chunks with own_stage) inside a step's leaves the
+// workers spinning until the step's span ends, and they sleep after it.
+TEST(WorkerPool, NestedBusySpansEndWithTheOutermost) {
+  WorkerPool pool(2);
+  EXPECT_FALSE(pool.busy());
+  pool.begin_busy();
+  std::atomic<int> sum{0};
+  auto f = [&](int i) { sum.fetch_add(i + 1); };
+  run_chunks(&pool, 10, f, true);
+  EXPECT_TRUE(pool.busy());
+  pool.run(10, f);
+  pool.end_busy();
+  EXPECT_FALSE(pool.busy());
+  EXPECT_EQ(sum.load(), 2 * 55);
+}
+
 // The chunk a thread runs never changes what it computes: the results of a stage are the same
 // at any thread count (here, chunks writing their own slots).
 TEST(WorkerPool, ResultsDoNotDependOnTheThreadCount) {
