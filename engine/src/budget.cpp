@@ -61,6 +61,7 @@
 // and their impulses, all state, so snapshots and replays reproduce it. Islands touching a
 // moving kinematic body, or driven by a motor against a static one, keep the world's substeps.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -91,11 +92,12 @@ int substeps_for(const WorldSettings& s, double ratio) {
 // two awake bodies comes up from both (take keeps maxima, flags and components, the same in any
 // order). The walk over the pool also lists the awake joints (those with an awake body at
 // either end) in id order for prepare_joints (WorldImpl::tick_joints), so that the tick walks
-// the pool once. With the world's threads it walks chunks of the pool at once, end_of running on
-// them, and takes the chunks' ends in chunk order: the same ends in the same order as one
-// thread's walk.
-template <class EndFn, class TakeFn>
-void each_awake_joint_end(WorldImpl& w, const std::vector<int>& awake, EndFn end_of, TakeFn take) {
+// the pool once. With the world's threads it walks chunks of the pool at once, each thread
+// taking its ends with take_shared, which must give take's results in any order and from
+// several threads at once; the chunks' joint lists are joined in chunk order.
+template <class EndFn, class TakeFn, class SharedTakeFn>
+void each_awake_joint_end(WorldImpl& w, const std::vector<int>& awake, EndFn end_of, TakeFn take,
+                          SharedTakeFn take_shared) {
   const std::vector<int>& slot = w.solver_scratch.body_slot;
   if (2 * awake.size() < static_cast<size_t>(w.body_count)) {
     for (size_t k = 0; k < awake.size(); ++k) {
@@ -144,7 +146,6 @@ void each_awake_joint_end(WorldImpl& w, const std::vector<int>& awake, EndFn end
     WorldImpl::JointWalkChunk& mine = out[c];
     mine.joints.clear();
     mine.springs = 0;
-    mine.ends.clear();
     const size_t lo = static_cast<size_t>(c) * kJointsPerWalk;
     walk(
         lo, std::min(lo + kJointsPerWalk, n),
@@ -152,13 +153,12 @@ void each_awake_joint_end(WorldImpl& w, const std::vector<int>& awake, EndFn end
           mine.joints.push_back(static_cast<int>(ji));
           mine.springs += j.type == JointType::kSpring;
         },
-        [&](const Joint& j, int k, int other) { mine.ends.push_back(end_of(j, k, other)); });
+        [&](const Joint& j, int k, int other) { take_shared(end_of(j, k, other)); });
   };
   run_chunks(w.pool, chunks, chunk, true);
   for (int c = 0; c < chunks; ++c) {
     listed.joints.insert(listed.joints.end(), out[c].joints.begin(), out[c].joints.end());
     listed.springs += out[c].springs;
-    for (const WorldImpl::JointEnd& e : out[c].ends) take(e);
   }
 }
 
@@ -315,13 +315,31 @@ bool WorldImpl::plan_joint_needs(const std::vector<int>& awake, double g) {
     if (o.is_dynamic() && o.awake) e.partner = slot[other] - 1;
     return e;
   };
-  each_awake_joint_end(*this, awake, end_of, [&](const JointEnd& e) {
+  auto take = [&](const JointEnd& e) {
     if (e.held) held[e.k] = 1;
     if (e.spring) return;
     any = true;
     weakest[e.k] = std::max(weakest[e.k], e.weakest);
     if (e.partner >= 0) unite(parent, e.k, e.partner);
-  });
+  };
+  // The same from several threads: a flag set, a maximum (of sums of inverse masses, never
+  // negative) and the sets, none of which depends on the order.
+  std::atomic<bool> any_shared{false};
+  auto take_shared = [&](const JointEnd& e) {
+    if (e.held) std::atomic_ref<uint8_t>(held[e.k]).store(1, std::memory_order_relaxed);
+    if (e.spring) return;
+    if (!any_shared.load(std::memory_order_relaxed)) {
+      any_shared.store(true, std::memory_order_relaxed);
+    }
+    std::atomic_ref<double> most(weakest[e.k]);
+    double seen = most.load(std::memory_order_relaxed);
+    while (e.weakest > seen &&
+           !most.compare_exchange_weak(seen, e.weakest, std::memory_order_relaxed)) {
+    }
+    if (e.partner >= 0) unite_shared(parent, e.k, e.partner);
+  };
+  each_awake_joint_end(*this, awake, end_of, take, take_shared);
+  any = any || any_shared.load(std::memory_order_relaxed);
   if (!any || g == 0.0) return false;
   mass.assign(n, 0.0);
   for (int k = 0; k < n; ++k) {

@@ -352,12 +352,11 @@ class WorldImpl {
     bool held = false;  // held to a moving kinematic body, or driven against infinite mass
     bool spring = false;
   };
-  // With the world's threads that walk runs in chunks of joints, each listing its awake joints
-  // and their ends, taken in chunk order (budget.cpp).
+  // With the world's threads that walk runs in chunks of joints, each listing its awake joints,
+  // joined in chunk order (budget.cpp).
   struct JointWalkChunk {
     std::vector<int> joints;
     size_t springs = 0;
-    std::vector<JointEnd> ends;
   };
   std::vector<JointWalkChunk> scratch_joint_walk;
   struct BudgetGroup {

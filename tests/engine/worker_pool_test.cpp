@@ -3,11 +3,13 @@
 // thread with nothing left of its own run helps with the others'.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <thread>
 #include <vector>
 
+#include "union_find.h"
 #include "worker_pool.h"
 
 namespace fulcrum {
@@ -84,6 +86,43 @@ TEST(WorkerPool, NestedBusySpansEndWithTheOutermost) {
   pool.end_busy();
   EXPECT_FALSE(pool.busy());
   EXPECT_EQ(sum.load(), 2 * 55);
+}
+
+// Sets joined by several threads at once (unite_shared, as the joint budgets join their
+// components) are the sets one thread's unite makes, with the same roots (each set's least
+// index), whatever the order the threads happen to take the pairs in.
+TEST(WorkerPool, SharedUnionsGiveOneThreadsSetsAndRoots) {
+  constexpr int kItems = 5000;
+  uint64_t seed = 12345;
+  auto next = [&seed] {
+    seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<int>((seed >> 33) % kItems);
+  };
+  for (int round = 0; round < 20; ++round) {
+    // Chains (long paths to halve) and random pairs (sets merging from everywhere).
+    std::vector<std::pair<int, int>> pairs;
+    for (int i = 0; i + 1 < kItems; i += 2) pairs.emplace_back(i + 1, i);
+    for (int i = 0; i < kItems / 2; ++i) pairs.emplace_back(next(), next());
+    std::vector<int> serial(kItems), shared(kItems);
+    for (int i = 0; i < kItems; ++i) serial[i] = shared[i] = i;
+    for (const auto& [a, b] : pairs) unite(serial, a, b);
+    WorkerPool pool(4);
+    constexpr int kPerChunk = 64;
+    const int chunks = static_cast<int>((pairs.size() + kPerChunk - 1) / kPerChunk);
+    auto f = [&](int c) {
+      for (size_t i = c * kPerChunk; i < std::min(pairs.size(), size_t(c + 1) * kPerChunk); ++i) {
+        unite_shared(shared, pairs[i].first, pairs[i].second);
+      }
+    };
+    run_chunks(&pool, chunks, f, true);
+    int sets = 0;
+    for (int i = 0; i < kItems; ++i) {
+      ASSERT_EQ(find_root(shared, i), find_root(serial, i)) << "item " << i << ", round " << round;
+      sets += find_root(serial, i) == i;
+    }
+    EXPECT_GT(sets, 1);
+    EXPECT_LT(sets, kItems / 2);
+  }
 }
 
 // The chunk a thread runs never changes what it computes: the results of a stage are the same
