@@ -99,13 +99,21 @@ template <class EndFn, class TakeFn, class SharedTakeFn>
 void each_awake_joint_end(WorldImpl& w, const std::vector<int>& awake, EndFn end_of, TakeFn take,
                           SharedTakeFn take_shared) {
   const std::vector<int>& slot = w.solver_scratch.body_slot;
+  const std::vector<uint8_t>& dynamic = w.budget.dynamic;
+  const int n = static_cast<int>(awake.size());
+  // A body's position in `awake` if it is there, else -1 (from the dense slots, not the record).
+  auto place = [&](int body) {
+    const int k = slot[body] - 1;
+    return k >= 0 && k < n && awake[k] == body ? k : -1;
+  };
+  const std::vector<WorldImpl::JointHead>& heads = w.joint_heads;
   if (2 * awake.size() < static_cast<size_t>(w.body_count)) {
-    for (size_t k = 0; k < awake.size(); ++k) {
+    for (int k = 0; k < n; ++k) {
       const int bi = awake[k];
-      if (!w.bodies[bi].is_dynamic()) continue;
+      if (!dynamic[k]) continue;
       for (int ji : w.bodies[bi].joints) {
-        const Joint& j = w.joints[ji];
-        take(end_of(j, static_cast<int>(k), j.body_a == bi ? j.body_b : j.body_a));
+        const WorldImpl::JointHead& j = heads[ji];
+        take(end_of(j, ji, k, j.body_a == bi ? j.body_b : j.body_a));
       }
     }
     return;
@@ -114,30 +122,31 @@ void each_awake_joint_end(WorldImpl& w, const std::vector<int>& awake, EndFn end
   listed.joints.clear();
   listed.springs = 0;
   listed.stamp = w.step_stamp;
-  // Joints [lo, hi) of the pool: fn(ji) for each awake one, found(j, k, other) for its ends.
+  // Joints [lo, hi) of the pool: fn(j, ji) for each awake one, found(j, ji, k, other) for its
+  // ends.
   auto walk = [&](size_t lo, size_t hi, auto&& fn, auto&& found) {
     for (size_t ji = lo; ji < hi; ++ji) {
-      if (ji + kJointFetchAhead < hi) fetch_joint_head(w.joints[ji + kJointFetchAhead]);
-      const Joint& j = w.joints[ji];
+      const WorldImpl::JointHead& j = heads[ji];
       if (!j.alive) continue;
-      const Body& a = w.bodies[j.body_a];
-      const Body& b = w.bodies[j.body_b];
-      if (a.awake || b.awake) fn(j, ji);
-      if (a.awake && a.is_dynamic()) found(j, slot[j.body_a] - 1, j.body_b);
-      if (b.awake && b.is_dynamic()) found(j, slot[j.body_b] - 1, j.body_a);
+      const int ka = place(j.body_a), kb = place(j.body_b);
+      if (ka >= 0 || kb >= 0) fn(j, ji);
+      if (ka >= 0 && dynamic[ka]) found(j, ji, ka, j.body_b);
+      if (kb >= 0 && dynamic[kb]) found(j, ji, kb, j.body_a);
     }
   };
   constexpr size_t kJointsPerWalk = 1024;
-  const size_t n = w.joints.size();
-  const int chunks = static_cast<int>((n + kJointsPerWalk - 1) / kJointsPerWalk);
+  const size_t count = heads.size();
+  const int chunks = static_cast<int>((count + kJointsPerWalk - 1) / kJointsPerWalk);
   if (w.pool == nullptr || chunks < 2) {
     walk(
-        0, n,
-        [&](const Joint& j, size_t ji) {
+        0, count,
+        [&](const WorldImpl::JointHead& j, size_t ji) {
           listed.joints.push_back(static_cast<int>(ji));
           listed.springs += j.type == JointType::kSpring;
         },
-        [&](const Joint& j, int k, int other) { take(end_of(j, k, other)); });
+        [&](const WorldImpl::JointHead& j, size_t ji, int k, int other) {
+          take(end_of(j, ji, k, other));
+        });
     return;
   }
   std::vector<WorldImpl::JointWalkChunk>& out = w.scratch_joint_walk;
@@ -148,12 +157,14 @@ void each_awake_joint_end(WorldImpl& w, const std::vector<int>& awake, EndFn end
     mine.springs = 0;
     const size_t lo = static_cast<size_t>(c) * kJointsPerWalk;
     walk(
-        lo, std::min(lo + kJointsPerWalk, n),
-        [&](const Joint& j, size_t ji) {
+        lo, std::min(lo + kJointsPerWalk, count),
+        [&](const WorldImpl::JointHead& j, size_t ji) {
           mine.joints.push_back(static_cast<int>(ji));
           mine.springs += j.type == JointType::kSpring;
         },
-        [&](const Joint& j, int k, int other) { take_shared(end_of(j, k, other)); });
+        [&](const WorldImpl::JointHead& j, size_t ji, int k, int other) {
+          take_shared(end_of(j, ji, k, other));
+        });
   };
   run_chunks(w.pool, chunks, chunk, true);
   for (int c = 0; c < chunks; ++c) {
@@ -303,16 +314,25 @@ bool WorldImpl::plan_joint_needs(const std::vector<int>& awake, double g) {
   // when both are awake and dynamic. Any joint: whether it holds its body to a moving
   // kinematic body or drives it against a body of infinite mass (for plan_budgets, in this
   // walk over the joints so that a tick makes one).
-  auto end_of = [&](const Joint& j, int k, int other) {
-    const Body& o = bodies[other];
-    const bool driven = j.enable_motor || j.type == JointType::kMotor;
+  // An other end that is awake and dynamic is read from the dense arrays plan_budgets filled;
+  // only another kind of end reads the body record (and the joint's motor flag).
+  const std::vector<double>& inv_mass = budget.inv_mass;
+  const std::vector<uint8_t>& dynamic = budget.dynamic;
+  auto end_of = [&](const JointHead& j, size_t ji, int k, int other) {
     JointEnd e;
     e.k = k;
-    e.held = !o.is_dynamic() && (o.awake || driven);
     e.spring = j.type == JointType::kSpring;
+    if (const int ko = slot[other] - 1; ko >= 0 && ko < n && awake[ko] == other && dynamic[ko]) {
+      if (e.spring) return e;
+      e.weakest = inv_mass[k] + inv_mass[ko];
+      e.partner = ko;
+      return e;
+    }
+    const Body& o = bodies[other];
+    const bool driven = joints[ji].enable_motor || j.type == JointType::kMotor;
+    e.held = !o.is_dynamic() && (o.awake || driven);
     if (e.spring) return e;
-    e.weakest = bodies[awake[k]].inv_mass + o.inv_mass;
-    if (o.is_dynamic() && o.awake) e.partner = slot[other] - 1;
+    e.weakest = inv_mass[k] + o.inv_mass;
     return e;
   };
   auto take = [&](const JointEnd& e) {
@@ -399,12 +419,15 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   } else {
     dynamic.resize(n);
     jointed.resize(n);
+    budget.inv_mass.resize(n);
+    std::vector<double>& inv_mass = budget.inv_mass;
     auto read_bodies = [&](int c) {
       for (int k = c * kBodiesPerChunk; k < std::min(n, (c + 1) * kBodiesPerChunk); ++k) {
         const Body& b = bodies[awake[k]];
         dynamic[k] = b.is_dynamic();
         jointed[k] = !b.joints.empty();
         body_mass[k] = b.mass;
+        inv_mass[k] = b.inv_mass;
       }
     };
     run_chunks(chunks > 1 ? pool : nullptr, chunks, read_bodies, true);

@@ -160,6 +160,7 @@ void WorldImpl::destroy_joint_at(int ji) {
     list.erase(std::find(list.begin(), list.end(), ji));
   }
   j.alive = false;
+  note_joint(ji);
   free_joints.push_back(ji);
 }
 
@@ -578,6 +579,7 @@ Result<int> WorldImpl::add_joint(JointType type, BodyId body_a, BodyId body_b,
   j.body_a = a;
   j.body_b = b;
   j.collide_connected = collide_connected;
+  w.note_joint(ji);
   w.bodies[a].joints.push_back(ji);
   w.bodies[b].joints.push_back(ji);
   if (!collide_connected) {

@@ -417,6 +417,8 @@ Status World::restore(const WorldSnapshot& s) {
   }
   w.joints = s.joints;
   w.free_joints = s.free_joints;
+  w.joint_heads.clear();
+  for (size_t ji = 0; ji < w.joints.size(); ++ji) w.note_joint(static_cast<int>(ji));
   w.breakable_joints = false;
   for (const Joint& j : w.joints)
     w.breakable_joints = w.breakable_joints || (j.alive && may_break(j));

@@ -53,12 +53,6 @@ inline void fetch_joint(const Joint& j) {
   __builtin_prefetch(p + 64);
 }
 
-// Fetches a joint's first cache line alone: its kind, flags and bodies (the budgets' walk reads
-// nothing else of it).
-inline void fetch_joint_head(const Joint& j) {
-  __builtin_prefetch(&j);
-}
-
 // Whether a joint has a finite break limit (break_joints checks only those).
 inline bool may_break(const Joint& j) {
   return !std::isinf(j.break_force) || !std::isinf(j.break_torque);
@@ -352,6 +346,21 @@ class WorldImpl {
     bool held = false;  // held to a moving kinematic body, or driven against infinite mass
     bool spring = false;
   };
+  // Per joint slot, what the budgets' walk over the joint pool reads of every joint each tick:
+  // its bodies, its kind and whether it lives, packed apart from the 384-byte joints (the joint
+  // grid's 19 800 heads take 240 kB, their first lines 1.3 MB). Derived, so not state:
+  // add_joint and destroy_joint_at keep it (note_joint), restore recomputes it.
+  struct JointHead {
+    int body_a = kNullIndex, body_b = kNullIndex;
+    JointType type = JointType::kDistance;
+    bool alive = false;
+  };
+  std::vector<JointHead> joint_heads;
+  void note_joint(int joint) {
+    if (joint_heads.size() < joints.size()) joint_heads.resize(joints.size());
+    const Joint& j = joints[joint];
+    joint_heads[joint] = JointHead{j.body_a, j.body_b, j.type, j.alive};
+  }
   // With the world's threads that walk runs in chunks of joints, each listing its awake joints,
   // joined in chunk order (budget.cpp).
   struct JointWalkChunk {
@@ -383,6 +392,7 @@ class WorldImpl {
     std::vector<uint8_t> dynamic;         // per body: whether it is dynamic
     std::vector<uint8_t> jointed;         // per body: whether it holds a joint
     std::vector<double> body_mass;        // per body: its mass
+    std::vector<double> inv_mass;         // per body: its inverse mass (read with `dynamic`)
     // Every awake body is dynamic and holds no joint (read with `dynamic`, for one_pass_tick;
     // false when plan_budgets stopped before reading them).
     bool plain_bodies = false;

@@ -12,6 +12,7 @@
 #include <iterator>
 #include <vector>
 
+#include "fulcrum/joints.h"
 #include "fulcrum/scene.h"
 #include "fulcrum/scenes.h"
 #include "fulcrum/trig.h"
@@ -807,6 +808,64 @@ TEST(WorldTest, ShapeOutlinesBoxEveryShapeAsItsGeometryDoes) {
     }
   }
   EXPECT_EQ(checked, 2 * 6 * 4);
+}
+
+// The budgets' walk over the joint pool reads each joint's packed head (WorldImpl::JointHead),
+// not the joint: the heads must follow every creation, destruction and slot reuse, and a restore.
+TEST(WorldTest, JointHeadsFollowTheJointsThroughEditsAndRestore) {
+  World w;
+  add_ground(w);
+  std::vector<BodyId> balls;
+  for (int i = 0; i < 6; ++i) balls.push_back(add_ball(w, Vec2(1.0 * i, 4.0), 0.3));
+  auto revolute = [&](BodyId a, BodyId b) {
+    RevoluteJointDef def;
+    def.body_a = a;
+    def.body_b = b;
+    def.local_anchor_a = Vec2(0.5, 0.0);
+    def.local_anchor_b = Vec2(-0.5, 0.0);
+    return *w.create_revolute_joint(def);
+  };
+  auto distance = [&](BodyId a, BodyId b) {
+    DistanceJointDef def;
+    def.body_a = a;
+    def.body_b = b;
+    return *w.create_distance_joint(def);
+  };
+  const JointId first = revolute(balls[0], balls[1]);
+  revolute(balls[1], balls[2]);
+  const JointId third = distance(balls[2], balls[3]);
+  revolute(balls[3], balls[4]);
+  auto check = [](const World& world, int alive) {
+    const WorldImpl& impl = world.impl();
+    ASSERT_EQ(impl.joint_heads.size(), impl.joints.size());
+    int live = 0;
+    for (size_t ji = 0; ji < impl.joints.size(); ++ji) {
+      const Joint& j = impl.joints[ji];
+      const WorldImpl::JointHead& h = impl.joint_heads[ji];
+      EXPECT_EQ(h.alive, j.alive) << "joint " << ji;
+      live += h.alive;
+      if (!j.alive) continue;
+      EXPECT_EQ(h.body_a, j.body_a) << "joint " << ji;
+      EXPECT_EQ(h.body_b, j.body_b) << "joint " << ji;
+      EXPECT_EQ(h.type, j.type) << "joint " << ji;
+    }
+    EXPECT_EQ(live, alive);
+  };
+  check(w, 4);
+  ASSERT_TRUE(w.destroy_joint(first).ok());
+  ASSERT_TRUE(w.destroy_joint(third).ok());
+  check(w, 2);
+  distance(balls[4], balls[5]);                // the third's slot, another kind and other bodies
+  revolute(balls[5], balls[0]);                // the first's
+  ASSERT_TRUE(w.destroy_body(balls[1]).ok());  // and its joint with it
+  check(w, 3);
+  for (int t = 0; t < 5; ++t) w.step();
+  World copy;
+  ASSERT_TRUE(copy.restore(w.snapshot()).ok());
+  check(copy, 3);
+  copy.step();
+  w.step();
+  EXPECT_EQ(copy.snapshot().state_hash, w.snapshot().state_hash);
 }
 
 // With sleep off every awake body's rest timer is zero after a tick, whether the world just
