@@ -177,7 +177,7 @@ void WorldImpl::synchronize_awake(const std::vector<int>& awake) {
 // and the tree rebuilt only once its cost (DynamicTree::cost) has grown by a quarter since the
 // last rebuild.
 void WorldImpl::commit_moves() {
-  const size_t threshold = std::max<size_t>(64, static_cast<size_t>(tree.proxy_count()) / 8);
+  const size_t threshold = std::max<size_t>(64, static_cast<size_t>(tree.proxy_count()) / 16);
   if (pending_moves.size() >= threshold) {
     for (const auto& [proxy, box] : pending_moves) tree.set_leaf_box(proxy, box);
     constexpr double kRefitSlack = 1.25;
