@@ -85,6 +85,14 @@ int substeps_for(const WorldSettings& s, double ratio) {
   return need >= s.max_substeps ? s.max_substeps : std::max(s.substeps, static_cast<int>(need));
 }
 
+// A body's position in `awake` if it is there, else -1, from the solver's body slots
+// (plan_budgets sets slot[awake[k]] = k + 1; other bodies' entries may be stale) instead of its
+// record.
+int awake_place(const std::vector<int>& slot, const std::vector<int>& awake, int body) {
+  const int k = slot[body] - 1;
+  return k >= 0 && k < static_cast<int>(awake.size()) && awake[k] == body ? k : -1;
+}
+
 // Takes take(end_of(joint, k, other)) for each live joint and each of its ends that is an awake
 // dynamic body: k that body's position in `awake` (w.solver_scratch.body_slot is set), other the
 // body at the joint's other end. With most bodies awake it walks the joint pool in id order,
@@ -101,11 +109,6 @@ void each_awake_joint_end(WorldImpl& w, const std::vector<int>& awake, EndFn end
   const std::vector<int>& slot = w.solver_scratch.body_slot;
   const std::vector<uint8_t>& dynamic = w.budget.dynamic;
   const int n = static_cast<int>(awake.size());
-  // A body's position in `awake` if it is there, else -1 (from the dense slots, not the record).
-  auto place = [&](int body) {
-    const int k = slot[body] - 1;
-    return k >= 0 && k < n && awake[k] == body ? k : -1;
-  };
   const std::vector<WorldImpl::JointHead>& heads = w.joint_heads;
   if (2 * awake.size() < static_cast<size_t>(w.body_count)) {
     for (int k = 0; k < n; ++k) {
@@ -128,7 +131,7 @@ void each_awake_joint_end(WorldImpl& w, const std::vector<int>& awake, EndFn end
     for (size_t ji = lo; ji < hi; ++ji) {
       const WorldImpl::JointHead& j = heads[ji];
       if (!j.alive) continue;
-      const int ka = place(j.body_a), kb = place(j.body_b);
+      const int ka = awake_place(slot, awake, j.body_a), kb = awake_place(slot, awake, j.body_b);
       if (ka >= 0 || kb >= 0) fn(j, ji);
       if (ka >= 0 && dynamic[ka]) found(j, ji, ka, j.body_b);
       if (kb >= 0 && dynamic[kb]) found(j, ji, kb, j.body_a);
@@ -322,7 +325,7 @@ bool WorldImpl::plan_joint_needs(const std::vector<int>& awake, double g) {
     JointEnd e;
     e.k = k;
     e.spring = j.type == JointType::kSpring;
-    if (const int ko = slot[other] - 1; ko >= 0 && ko < n && awake[ko] == other && dynamic[ko]) {
+    if (const int ko = awake_place(slot, awake, other); ko >= 0 && dynamic[ko]) {
       if (e.spring) return e;
       e.weakest = inv_mass[k] + inv_mass[ko];
       e.partner = ko;
@@ -436,8 +439,8 @@ bool WorldImpl::plan_budgets(const std::vector<int>& awake) {
   budget.plain_bodies = plain;
   // A body's position in `awake` if it is there and dynamic; -1 otherwise.
   auto awake_dynamic = [&](int body) {
-    const int k = slot[body] - 1;
-    return k >= 0 && k < n && awake[k] == body && dynamic[k] ? k : -1;
+    const int k = awake_place(slot, awake, body);
+    return k >= 0 && dynamic[k] ? k : -1;
   };
 
   // Joint components: mass and weakest joint (first per body, then per component).
