@@ -1016,9 +1016,8 @@ void WorldImpl::solve_group(const std::vector<int>& awake, const std::vector<int
   BiasRule relax = rule;
   relax.use_bias = false;
 
-  // Many bodies to load: shared with the pool's threads (which stay busy for the whole group).
+  // Many bodies to load: shared with the pool's threads (busy for the whole tick, try_step).
   WorkerPool* const loaders = pool != nullptr && awake.size() >= 4096 ? pool : nullptr;
-  if (loaders != nullptr) loaders->begin_busy();
   load_bodies(*this, awake, rule.rigid && rule.split, h, s, loaders);
   s.contacts.assign(contacts_sorted.begin(), contacts_sorted.end());
   // Soft contacts are solved colour by colour in lanes (contact_lanes.h); rigid contacts (the
@@ -1032,7 +1031,6 @@ void WorldImpl::solve_group(const std::vector<int>& awake, const std::vector<int
                           !coloured_points.chunk_start.empty())
           ? pool
           : nullptr;
-  if (workers != nullptr) workers->begin_busy();
   if (coloured) {
     prepare_coloured(*this, s, contact_bodies, h, &coloured_contacts, workers);
   } else {
@@ -1144,7 +1142,6 @@ void WorldImpl::solve_group(const std::vector<int>& awake, const std::vector<int
   }
   for_chunks(workers, awake.size(), 256,
              [&](size_t lo, size_t hi) { finalize_bodies(*this, awake, s, h, lo, hi); });
-  if (workers != nullptr || loaders != nullptr) pool->end_busy();
 }
 
 void WorldImpl::prepare_reference_tick() {

@@ -16,6 +16,7 @@
 #include "fulcrum/scene.h"
 #include "fulcrum/scenes.h"
 #include "fulcrum/trig.h"
+#include "worker_pool.h"
 #include "world_impl.h"
 
 namespace fulcrum {
@@ -866,6 +867,20 @@ TEST(WorldTest, JointHeadsFollowTheJointsThroughEditsAndRestore) {
   copy.step();
   w.step();
   EXPECT_EQ(copy.snapshot().state_hash, w.snapshot().state_hash);
+}
+
+// A tick keeps its world's workers spinning from its first stage to its last and lets them
+// sleep after it: every busy span it opens is closed, however many of its stages share the
+// work (the large pyramid loads its bodies and solves its contacts on the threads). A span
+// left open would keep the workers spinning between ticks.
+TEST(WorldTest, AThreadedTickLeavesItsWorkersFreeToSleep) {
+  World world = std::move(build_world(scenes::builtin("large_pyramid").value()).value());
+  ASSERT_TRUE(world.set_threads(2).ok());
+  for (int t = 0; t < 3; ++t) {
+    world.step();
+    ASSERT_NE(world.impl().pool, nullptr);
+    EXPECT_FALSE(world.impl().pool->busy()) << "after tick " << t;
+  }
 }
 
 // With sleep off every awake body's rest timer is zero after a tick, whether the world just
