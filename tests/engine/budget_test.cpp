@@ -20,13 +20,13 @@ using namespace fulcrum::testing;
 // The substeps follow the predicted give: none below the tolerance, S sqrt(give / tol)
 // rounded up above it (the give falls as the square of the substeps), capped.
 TEST(Budget, SubstepsGrowWithTheSquareRootOfTheGive) {
-  WorldSettings s;  // 4 substeps, tolerance 0.008 m, cap 16
+  WorldSettings s;  // 4 substeps, tolerance 0.008 m, cap 14
   EXPECT_EQ(budget_substeps(s, 0.0), 4);
   EXPECT_EQ(budget_substeps(s, 0.008), 4);
   EXPECT_EQ(budget_substeps(s, 4.0 * 0.008), 8);         // twice the substeps: a quarter
   EXPECT_EQ(budget_substeps(s, 4.0 * 0.008 + 1e-9), 9);  // rounded up
   EXPECT_EQ(budget_substeps(s, 9.0 * 0.008), 12);
-  EXPECT_EQ(budget_substeps(s, 1e6), 16);
+  EXPECT_EQ(budget_substeps(s, 1e6), 14);
   s.max_substeps = 4;
   EXPECT_EQ(budget_substeps(s, 1e6), 4);
   // Iterations: about the world's biased passes per tick, at least one per substep.
@@ -38,14 +38,14 @@ TEST(Budget, SubstepsGrowWithTheSquareRootOfTheGive) {
 
 // The predicted give of a joint component is |g| M K / omega^2: for the very heavy chain
 // (40 links of 0.25 kg at density 1, a ball of 1000 links, joints at 60 Hz) 0.146 m, which
-// asks for 4 sqrt(0.146 / 0.008) = 17.1, capped at 16 substeps. A ragdoll pile predicts
+// asks for 4 sqrt(0.146 / 0.008) = 17.1, capped at 14 substeps. A ragdoll pile predicts
 // 2.6 mm and keeps 4.
 TEST(Budget, TheVeryHeavyChainGetsTheCapAndRagdollsKeepTheWorldsSubsteps) {
   World chain = build("very_heavy_chain");
   chain.step();
   EXPECT_EQ(chain.metrics().budget_islands, 1);
-  EXPECT_EQ(chain.metrics().max_substeps, 16);
-  EXPECT_EQ(chain.budgets().max_substeps, 16);
+  EXPECT_EQ(chain.metrics().max_substeps, 14);
+  EXPECT_EQ(chain.budgets().max_substeps, 14);
 
   World heavy = build("heavy_chain");  // predicts 1.97 cm: 4 sqrt(1.97 / 0.8) = 6.3, so 7
   heavy.step();
@@ -78,7 +78,7 @@ void add_very_heavy_chain(SceneDef* s) {
 }
 
 // A pile that needs no budget is solved bit for bit as it would be alone, while a very heavy
-// chain far away runs 16 substeps in the same world: the pile pays nothing for the chain.
+// chain far away runs 14 substeps in the same world: the pile pays nothing for the chain.
 TEST(Budget, AnIslandWithoutABudgetIsSolvedAsIfAlone) {
   SceneDef pile;
   scenes::add_ground(&pile, 20.0);
@@ -95,7 +95,7 @@ TEST(Budget, AnIslandWithoutABudgetIsSolvedAsIfAlone) {
     shared.step();
   }
   EXPECT_EQ(shared.metrics().budget_islands, 1);
-  EXPECT_EQ(shared.metrics().max_substeps, 16);
+  EXPECT_EQ(shared.metrics().max_substeps, 14);
   // The pile is light (one_pass_give_tolerance): one velocity pass, alone and beside the chain.
   EXPECT_EQ(alone.budgets().max_velocity_iterations, 1);
   std::vector<BodyId> a = alone.bodies(), b = shared.bodies();
@@ -150,13 +150,13 @@ TEST(Budget, RestoredAndThreadedWorldsContinueBitForBit) {
 // Contacts follow the same rule against contact_give_tolerance (half the thinner shape's
 // thickness): none at or below it, S sqrt(ratio / tol) rounded up above it, capped.
 TEST(Budget, ContactSubstepsGrowWithTheSquareRootOfTheCompression) {
-  WorldSettings s;  // 4 substeps, contact tolerance 0.5, cap 16
+  WorldSettings s;  // 4 substeps, contact tolerance 0.5, cap 14
   EXPECT_EQ(contact_budget_substeps(s, 0.0), 4);
   EXPECT_EQ(contact_budget_substeps(s, 0.5), 4);
   EXPECT_EQ(contact_budget_substeps(s, 2.0), 8);
   EXPECT_EQ(contact_budget_substeps(s, 2.0 + 1e-9), 9);
   EXPECT_EQ(contact_budget_substeps(s, 4.5), 12);
-  EXPECT_EQ(contact_budget_substeps(s, 1e6), 16);
+  EXPECT_EQ(contact_budget_substeps(s, 1e6), 14);
 }
 
 // A shape's thickness is its narrowest width: a circle's or capsule's diameter, a plate's
@@ -450,7 +450,7 @@ TEST(Budget, SettingsOutOfRangeAreRefused) {
 
 // A joint breaks whichever budget group solves it. A 1 kg box (10 N) hangs by a pin with a
 // 5 N break_force beside the very heavy chain: the box is in the world's group, solved before
-// the chain's 16 substeps, and its pin still breaks on the first tick and is reported.
+// the chain's 14 substeps, and its pin still breaks on the first tick and is reported.
 TEST(Budget, JointsBreakInEveryBudgetGroup) {
   SceneDef s;
   add_very_heavy_chain(&s);
@@ -475,7 +475,7 @@ TEST(Budget, JointsBreakInEveryBudgetGroup) {
   ASSERT_TRUE(w.set_joint_break_limits(id, 5.0, std::numeric_limits<double>::infinity()).ok());
   w.step();
   EXPECT_EQ(w.metrics().budget_islands, 1);
-  EXPECT_EQ(w.metrics().max_substeps, 16);
+  EXPECT_EQ(w.metrics().max_substeps, 14);
   ASSERT_EQ(w.events().joints_broken.size(), 1u);
   EXPECT_EQ(w.events().joints_broken[0], id);
   EXPECT_FALSE(w.is_valid(id));

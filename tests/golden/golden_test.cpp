@@ -46,7 +46,7 @@ constexpr Pinned kPinned[] = {
 // clang-format on
 
 // The fingerprint these results carry, and a hash over kPinned that ties the two together.
-constexpr char kFingerprint[] = "fulcrum-results-13";
+constexpr char kFingerprint[] = "fulcrum-results-14";
 constexpr uint64_t kResults = 0xcceef1888ec3cdafull;
 
 // gtest prints a failing parameter with this (rather than its bytes).

@@ -144,7 +144,7 @@ struct WorldSettings {
   // in by more than contact_give_tolerance of the thinner shape's thickness under the loads
   // they carried last tick, runs more substeps, with its joints and contacts stiffer in
   // proportion, up to max_substeps (<= substeps: never).
-  int max_substeps = 16;                // >= 1
+  int max_substeps = 14;                // >= 1
   double joint_give_tolerance = 0.008;  // m, > 0
   double contact_give_tolerance = 0.5;  // fraction of the thinner shape's thickness, > 0
   // An island whose resting contacts would all be pressed in by at most
