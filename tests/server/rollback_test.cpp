@@ -440,7 +440,12 @@ TEST_F(RollbackTest, TwoPlayersOnTheServersClock) {
     EXPECT_LE(n.ticks_advanced, kPlayed - kDelay);
     EXPECT_GE(n.ticks_advanced + n.caught_up, kPlayed - kDelay);
     EXPECT_EQ(n.predictions_held + n.rollbacks + n.caught_up, n.ticks_confirmed);
-    EXPECT_GT(n.rollbacks, 0);
+    // A loop that kept up predicted every tick, and the other player's random inputs broke some
+    // of those predictions. One that fell behind (a sanitizer build on a loaded machine) may have
+    // caught up instead of predicting at all: no rollback is owed then.
+    if (n.caught_up == 0) {
+      EXPECT_GT(n.rollbacks, 0);
+    }
     // How many inputs arrive in time is timing alone: on a sanitizer build every one of a
     // player's inputs can miss its tick (55 of 55 in one run), and the stand-ins take over;
     // the copies agree all the same.
