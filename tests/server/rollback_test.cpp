@@ -441,10 +441,14 @@ TEST_F(RollbackTest, TwoPlayersOnTheServersClock) {
     EXPECT_GE(n.ticks_advanced + n.caught_up, kPlayed - kDelay);
     EXPECT_EQ(n.predictions_held + n.rollbacks + n.caught_up, n.ticks_confirmed);
     // A loop that kept up predicted every tick, and the other player's random inputs broke some
-    // of those predictions. One that fell behind (a sanitizer build on a loaded machine) may have
-    // caught up instead of predicting at all: no rollback is owed then.
-    if (n.caught_up == 0) {
-      EXPECT_GT(n.rollbacks, 0);
+    // of those predictions. On a sanitizer build on a loaded machine no rollback may be owed: a
+    // loop that fell behind catches up instead of predicting, and where the other player's
+    // inputs miss their ticks (refused as late), the stand-ins repeat its last input, which is
+    // what the prediction assumed (a run on 2026-12-07 saw 0 rollbacks twice).
+    const int64_t other_late = predictors[1 - i].late;
+    if (n.caught_up == 0 && other_late == 0) {
+      EXPECT_GT(n.rollbacks, 0) << "held " << n.predictions_held << ", advanced "
+                                << n.ticks_advanced << ", late " << p.late;
     }
     // How many inputs arrive in time is timing alone: on a sanitizer build every one of a
     // player's inputs can miss its tick (55 of 55 in one run), and the stand-ins take over;
