@@ -72,18 +72,33 @@ class WorkerPool {
   std::atomic<bool> stop_{false};
 };
 
+// A busy span (begin_busy() / end_busy()) for this object's lifetime; nothing for a null pool.
+class BusySpan {
+ public:
+  explicit BusySpan(WorkerPool* pool) : pool_(pool) {
+    if (pool_ != nullptr) pool_->begin_busy();
+  }
+  ~BusySpan() {
+    if (pool_ != nullptr) pool_->end_busy();
+  }
+  BusySpan(const BusySpan&) = delete;
+  BusySpan& operator=(const BusySpan&) = delete;
+
+ private:
+  WorkerPool* pool_;
+};
+
 // Runs f(i) for every i in [0, chunks): shared among the pool's threads when there is a pool,
-// else in order on this thread. `own_stage` brackets it with begin_busy() / end_busy(), for a
-// stage outside a busy span (the solver keeps its pool busy from start to end).
+// else in order on this thread. `own_stage` brackets it with a busy span of its own, for a
+// stage outside a tick (a tick keeps its pool busy from start to end: World::try_step).
 template <class F>
 void run_chunks(WorkerPool* pool, int chunks, F& f, bool own_stage = false) {
   if (pool == nullptr) {
     for (int i = 0; i < chunks; ++i) f(i);
     return;
   }
-  if (own_stage) pool->begin_busy();
+  const BusySpan span(own_stage ? pool : nullptr);
   pool->run(chunks, f);
-  if (own_stage) pool->end_busy();
 }
 
 }  // namespace fulcrum

@@ -662,15 +662,7 @@ Status World::try_step() {
   // The workers spin from the first stage to the last: a tick's stages outside the solver
   // (the broad phase, collide, the budgets, the boxes) would otherwise wake them from sleep
   // one by one.
-  struct Busy {
-    WorkerPool* pool;
-    explicit Busy(WorkerPool* p) : pool(p) {
-      if (pool != nullptr) pool->begin_busy();
-    }
-    ~Busy() {
-      if (pool != nullptr) pool->end_busy();
-    }
-  } busy(w.pool);
+  const BusySpan busy(w.pool);
   // The broad phase first: it is the one stage that can refuse the tick, and it changes
   // nothing when it does.
   if (int64_t would = w.update_pairs(); would > 0) {
