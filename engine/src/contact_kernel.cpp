@@ -63,6 +63,20 @@ void solve_points_x2(PointBlock* blocks, int first, int end, SolverBody* bodies,
 void warm_points_x2(PointBlock* blocks, int first, int end, SolverBody* bodies) {
   warm_point_blocks<F64x2>(blocks, first, end, bodies);
 }
+void solve_revolutes_scalar(RevoluteBlock* blocks, int first, int end, SolverBody* bodies,
+                            const SolverBodyExtra* extras, const PointRule& rule) {
+  solve_revolute_blocks<double>(blocks, first, end, bodies, extras, rule);
+}
+void warm_revolutes_scalar(RevoluteBlock* blocks, int first, int end, SolverBody* bodies) {
+  warm_revolute_blocks<double>(blocks, first, end, bodies);
+}
+void solve_revolutes_x2(RevoluteBlock* blocks, int first, int end, SolverBody* bodies,
+                        const SolverBodyExtra* extras, const PointRule& rule) {
+  solve_revolute_blocks<F64x2>(blocks, first, end, bodies, extras, rule);
+}
+void warm_revolutes_x2(RevoluteBlock* blocks, int first, int end, SolverBody* bodies) {
+  warm_revolute_blocks<F64x2>(blocks, first, end, bodies);
+}
 
 }  // namespace lanes
 

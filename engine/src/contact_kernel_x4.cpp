@@ -48,4 +48,14 @@ void FULCRUM_X4_NAME(warm_points)(PointBlock* blocks, int first, int end, Solver
   warm_point_blocks<F64x4>(blocks, first, end, bodies);
 }
 
+void FULCRUM_X4_NAME(solve_revolutes)(RevoluteBlock* blocks, int first, int end, SolverBody* bodies,
+                                      const SolverBodyExtra* extras, const PointRule& rule) {
+  solve_revolute_blocks<F64x4>(blocks, first, end, bodies, extras, rule);
+}
+
+void FULCRUM_X4_NAME(warm_revolutes)(RevoluteBlock* blocks, int first, int end,
+                                     SolverBody* bodies) {
+  warm_revolute_blocks<F64x4>(blocks, first, end, bodies);
+}
+
 }  // namespace fulcrum::lanes

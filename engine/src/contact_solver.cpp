@@ -1025,10 +1025,11 @@ void WorldImpl::solve_group(const std::vector<int>& awake, const std::vector<int
   const bool coloured = !rule.rigid;
   prepare_joints(awake, h);
   // Threads only where a colour has chunks enough to share (see kBlocksPerChunk), or the joints
-  // that are not pins have groups enough (kRowsPerJointChunk).
+  // that are not revolute joints have groups enough (kRowsPerJointChunk).
   WorkerPool* workers =
-      pool != nullptr && ((coloured && s.contacts.size() >= 256) || coloured_points.points >= 256 ||
-                          !coloured_points.chunk_start.empty())
+      pool != nullptr &&
+              ((coloured && s.contacts.size() >= 256) || coloured_points.points >= 256 ||
+               coloured_points.revolutes.joints >= 256 || !coloured_points.chunk_start.empty())
           ? pool
           : nullptr;
   if (coloured) {

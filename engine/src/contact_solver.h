@@ -175,6 +175,7 @@ struct SolverScratch {
   struct RowSlots {
     int ia = 0, ib = 0;
     bool plain_point = false;
+    bool revolute = false;  // a revolute joint that is not a plain point
   };
   std::vector<RowSlots> joint_row_slots;
   std::vector<JointRow> spring_rows;  // spring force elements

@@ -6,7 +6,6 @@
 
 #include "fulcrum/trig.h"
 #include "joint_solver.h"
-#include "revolute_joint.h"
 #include "validation.h"
 #include "worker_pool.h"
 #include "world_impl.h"
@@ -291,18 +290,21 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h, bool eve
   };
   s.joint_rows.resize(s.joints.size());
   s.joint_row_slots.resize(s.joints.size());
-  auto note_slots = [&](size_t k) {
-    const JointRow& r = s.joint_rows[k];
-    s.joint_row_slots[k] = SolverScratch::RowSlots{r.ia, r.ib, r.plain_point};
+  // A row's slots and kind (revolute joints go to lanes, joint_lanes.h).
+  auto slots_of = [](const JointRow& r) {
+    return SolverScratch::RowSlots{r.ia, r.ib, r.plain_point,
+                                   r.type == JointType::kRevolute && !r.plain_point};
   };
+  auto note_slots = [&](size_t k) { s.joint_row_slots[k] = slots_of(s.joint_rows[k]); };
   s.spring_rows.clear();
   size_t n_rows = 0;
   ColouredPoints& cp = coloured_points;
   if (springs == 0) {
     // Row k is joint k's: rows in chunks, each written by one thread. When the rows may be last
-    // tick's (the same joints with the same slots and kinds: the same layout), each pin is
-    // written straight into its lane from a row of the chunk's own (place_point), and only the
-    // other rows are kept; a row that differs is kept too and the tick colours its rows anew.
+    // tick's (the same joints with the same slots and kinds: the same layout), each revolute
+    // joint is written straight into its lane from a row of the chunk's own (place_point), and
+    // only the other rows are kept; a row that differs is kept too and the tick colours its rows
+    // anew.
     n_rows = s.joints.size();
     const int chunks = static_cast<int>((n_rows + kJointsPerChunk - 1) / kJointsPerChunk);
     const bool placing = !every_row && layout_fits(cp, s.joints, pool != nullptr);
@@ -310,7 +312,7 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h, bool eve
     auto chunk = [&](int c) {
       const size_t lo = static_cast<size_t>(c) * kJointsPerChunk;
       const size_t hi = std::min(lo + kJointsPerChunk, n_rows);
-      JointRow pin;  // rows of plain pins are written up to `soft`, the rest left as is
+      JointRow pin;  // revolute rows; those of plain pins are written up to `soft` only
       for (size_t k = lo; k < hi; ++k) {
         if (k + kJointFetchAhead < hi) fetch_joint(joints[s.joints[k + kJointFetchAhead]]);
         if (!placing) {
@@ -318,10 +320,10 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h, bool eve
           note_slots(k);
           continue;
         }
-        const bool to_lane = plain_pin(joints[s.joints[k]]);
+        const bool to_lane = joints[s.joints[k]].type == JointType::kRevolute;
         JointRow& r = to_lane ? pin : s.joint_rows[k];
         fill_row(k, r);
-        s.joint_row_slots[k] = SolverScratch::RowSlots{r.ia, r.ib, r.plain_point};
+        s.joint_row_slots[k] = slots_of(r);
         if (place_point(&cp, k, r, s.bodies, s.body_extras)) continue;
         cp.chunk_differs[c] = 1;
         if (to_lane) s.joint_rows[k] = pin;
@@ -331,13 +333,15 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h, bool eve
     const bool placed = placing && std::find(cp.chunk_differs.begin(), cp.chunk_differs.end(), 1) ==
                                        cp.chunk_differs.end();
     if (placed) {
-      s.track_angles = !cp.other_rows.empty();
+      s.track_angles = !cp.other_rows.empty() || cp.revolutes.joints > 0;
       return;
     }
     if (placing) {
-      // Some pins went straight to lanes that are about to be laid out anew: their rows too.
+      // Some revolute joints went straight to lanes that are about to be laid out anew: their
+      // rows too.
       for (size_t k = 0; k < n_rows; ++k) {
-        if (s.joint_row_slots[k].plain_point) fill_row(k, s.joint_rows[k]);
+        const SolverScratch::RowSlots& slots = s.joint_row_slots[k];
+        if (slots.plain_point || slots.revolute) fill_row(k, s.joint_rows[k]);
       }
     }
   } else {
@@ -356,22 +360,14 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h, bool eve
   s.joint_row_slots.resize(n_rows);
   colour_points(s.joint_rows, s.joint_row_slots, s.bodies, s.body_extras, pool, &cp);
   // Only the rows that are not plain points read the angles the bodies turn.
-  s.track_angles = !cp.other_rows.empty();
+  s.track_angles = !cp.other_rows.empty() || cp.revolutes.joints > 0;
 }
 
-void WorldImpl::warm_start_joints(WorkerPool* workers, bool points) {
+void WorldImpl::warm_start_joints(WorkerPool* workers, bool lanes) {
   SolverScratch& s = solver_scratch;
-  if (points) warm_start_points(coloured_points, s.bodies.data(), workers);
+  if (lanes) warm_start_points(coloured_points, s.bodies.data(), workers);
   each_other_row(coloured_points, workers, [&](int k) {
     const JointRow& r = s.joint_rows[k];
-    if (r.type == JointType::kRevolute) {  // from its row alone, inline: bodies in registers
-      ScalarBody a = scalar_body(s, r.ia);
-      ScalarBody b = scalar_body(s, r.ib);
-      warm_start_revolute_joint(r, a, b);
-      store_velocity(a, s.bodies[r.ia]);
-      store_velocity(b, s.bodies[r.ib]);
-      return;
-    }
     ScalarBody a = scalar_body(s, r.ia);
     ScalarBody b = scalar_body(s, r.ib);
     Joint& j = joints[r.joint];
@@ -380,7 +376,7 @@ void WorldImpl::warm_start_joints(WorkerPool* workers, bool points) {
         warm_start_distance_joint(j, r, a, b);
         break;
       case JointType::kRevolute:
-        break;  // solved above
+        break;  // in lanes (joint_lanes.h)
       case JointType::kWeld:
         warm_start_weld_joint(j, r, a, b);
         break;
@@ -416,7 +412,8 @@ void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers, VelocityBefore*
   st.rigid = settings.joint_hertz == 0.0;
   st.baumgarte = settings.baumgarte;
   st.max_speed = settings.max_correction_speed;
-  // The same feedback solve_revolute_point gives its rows (their softness, prepare_joints').
+  // The feedback of the revolute joints' lanes: their rows' softness (prepare_joints') and
+  // limit_bias's rule, for all of them at once.
   const Softness soft = make_softness(settings.joint_hertz, settings.joint_damping_ratio, st.h);
   PointRule rule;
   rule.use_bias = use_bias;
@@ -425,17 +422,11 @@ void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers, VelocityBefore*
   rule.impulse_scale = st.rigid ? 0.0 : soft.impulse_scale;
   rule.max_speed = st.max_speed;
   rule.warm_next = warm_next;
-  solve_points(coloured_points, s.bodies.data(), rule, workers);
+  rule.h = st.h;
+  rule.inv_h = st.inv_h;
+  solve_points(coloured_points, s.bodies.data(), s.body_extras.data(), rule, workers);
   each_other_row(coloured_points, workers, [&](int k) {
     JointRow& r = s.joint_rows[k];
-    if (r.type == JointType::kRevolute) {  // from its row alone, inline: bodies in registers
-      ScalarBody a = scalar_body(s, r.ia);
-      ScalarBody b = scalar_body(s, r.ib);
-      solve_revolute_joint(r, st, a, b);
-      store_velocity(a, s.bodies[r.ia]);
-      store_velocity(b, s.bodies[r.ib]);
-      return;
-    }
     ScalarBody a = scalar_body(s, r.ia);
     ScalarBody b = scalar_body(s, r.ib);
     Joint& j = joints[r.joint];
@@ -444,7 +435,7 @@ void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers, VelocityBefore*
         solve_distance_joint(j, r, st, a, b);
         break;
       case JointType::kRevolute:
-        break;  // solved above
+        break;  // in lanes (joint_lanes.h)
       case JointType::kWeld:
         solve_weld_joint(j, r, st, a, b);
         break;
@@ -473,17 +464,6 @@ void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers, VelocityBefore*
 
 void WorldImpl::store_joint_impulses(WorkerPool* workers) {
   unpack_points(coloured_points, &joints, workers);
-  SolverScratch& s = solver_scratch;
-  each_other_row(coloured_points, workers, [&](int k) {
-    const JointRow& r = s.joint_rows[k];
-    if (r.type != JointType::kRevolute) return;
-    Joint& j = joints[r.joint];
-    j.linear_impulse = Vec2(r.ix, r.iy);
-    j.spring_impulse = r.revolute.spring_impulse;
-    j.motor_impulse = r.revolute.motor_impulse;
-    j.lower_impulse = r.revolute.lower_impulse;
-    j.upper_impulse = r.revolute.upper_impulse;
-  });
 }
 
 namespace {

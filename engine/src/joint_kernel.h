@@ -1,7 +1,7 @@
-// The plain revolute points of joint_lanes.h over a lane type V (contact_kernel.h's `double`,
-// 2 or 4 doubles), written as joint_frame, solve_revolute_point and apply_joint_impulse are:
-// per lane the same operations in the same order, so every V gives the same bits. Included by
-// contact_kernel.cpp and contact_kernel_x4.cpp after contact_kernel.h.
+// The revolute joints of joint_lanes.h over a lane type V (contact_kernel.h's `double`, 2 or 4
+// doubles): the rows revolute_joint.cpp states, with joint_frame's and apply_joint_impulse's
+// arithmetic. Per lane the same operations in the same order, so every V gives the same bits.
+// Included by contact_kernel.cpp and contact_kernel_x4.cpp after contact_kernel.h.
 #pragma once
 
 #include <cmath>
@@ -47,14 +47,14 @@ FULCRUM_LANE_INLINE void warm_point_lanes(PointBlock& k, int l0, SolverBody* bod
   v.store(k, l0, bodies);
 }
 
-// solve_revolute_point, lane by lane. A lane whose K is singular (two immovable bodies, and
-// the padding lanes) changes nothing, as the scalar function returns early.
+// A revolute joint's point rows, solved together through K, lane by lane, on bodies `v` (loaded,
+// not yet stored) with frame `f`: the impulse added to the lanes' accumulated point impulse and
+// applied to v. A lane whose K is singular (two immovable bodies, and the padding lanes) changes
+// nothing, as the scalar function returns early.
 template <class V>
-FULCRUM_LANE_INLINE void solve_point_lanes(PointBlock& k, int l0, SolverBody* bodies,
-                                           const PointRule& rule) {
+FULCRUM_LANE_INLINE void point_row_lanes(PointBlock& k, int l0, const PointFrame<V>& f,
+                                         LaneBodies<V>& v, const PointRule& rule) {
   using L = Lane<V>;
-  const PointFrame<V> f = point_frame<V>(k, l0, bodies);
-  LaneBodies<V> v(k, l0, bodies);
   const V zero = L::splat(0.0);
   const V iia = L::load(k.inv_inertia_a + l0), iib = L::load(k.inv_inertia_b + l0);
   const V cdx = (v.vbx - v.wb * f.rby) - (v.vax - v.wa * f.ray);
@@ -108,26 +108,155 @@ FULCRUM_LANE_INLINE void solve_point_lanes(PointBlock& k, int l0, SolverBody* bo
   L::store(k.ix + l0, singular ? ox : ox + px);
   L::store(k.iy + l0, singular ? oy : oy + py);
   v.apply(v.ima_row, iia, v.imb_row, iib, f.rax, f.ray, f.rbx, f.rby, px, py);
+}
+
+template <class V>
+FULCRUM_LANE_INLINE void solve_point_lanes(PointBlock& k, int l0, SolverBody* bodies,
+                                           const PointRule& rule) {
+  using L = Lane<V>;
+  const PointFrame<V> f = point_frame<V>(k, l0, bodies);
+  LaneBodies<V> v(k, l0, bodies);
+  point_row_lanes<V>(k, l0, f, v, rule);
+  v.store(k, l0, bodies);
+  if (rule.warm_next != nullptr) {
+    LaneWarmRows<V> w(k, l0, rule.warm_next);
+    w.apply(v.ima_row, L::load(k.inv_inertia_a + l0), v.imb_row, L::load(k.inv_inertia_b + l0),
+            f.rax, f.ray, f.rbx, f.rby, L::load(k.ix + l0), L::load(k.iy + l0));
+    w.store();
+  }
+}
+
+// --- revolute joints with angle rows (RevoluteBlock) ---
+
+// The angle turned since the tick began of the lanes' bodies in `slots`.
+template <class V>
+FULCRUM_LANE_INLINE V turned_lanes(const int32_t* slots, int l0, const SolverBodyExtra* extras) {
+  using L = Lane<V>;
+  alignas(32) double da[L::kCount];
+#pragma GCC unroll 16
+  for (int l = 0; l < L::kCount; ++l) da[l] = extras[slots[l0 + l]].da;
+  return L::load(da);
+}
+
+// An angle row's impulse `lambda` on the lanes where `on`: -lambda to A's spin, +lambda to B's
+// (revolute_detail::apply_angular); elsewhere the spins stay as they are.
+template <class V, class M>
+FULCRUM_LANE_INLINE void turn_lanes(M on, V lambda, V iia, V iib, V& wa, V& wb) {
+  wa = on ? wa - iia * lambda : wa;
+  wb = on ? wb + iib * lambda : wb;
+}
+
+// The warm start's angle impulse: what the spring, motor and limits have accumulated.
+template <class V>
+FULCRUM_LANE_INLINE V axial_impulse_lanes(const RevoluteBlock& k, int l0) {
+  using L = Lane<V>;
+  return L::load(k.spring_impulse + l0) + L::load(k.motor_impulse + l0) +
+         L::load(k.lower_impulse + l0) - L::load(k.upper_impulse + l0);
+}
+
+// A revolute joint's warm start, lane by lane: the point's impulse at its anchors, then the
+// angle rows' about the joint.
+template <class V>
+FULCRUM_LANE_INLINE void warm_revolute_lanes(RevoluteBlock& k, int l0, SolverBody* bodies) {
+  using L = Lane<V>;
+  const PointFrame<V> f = point_frame<V>(k, l0, bodies);
+  LaneBodies<V> v(k, l0, bodies);
+  const V iia = L::load(k.inv_inertia_a + l0), iib = L::load(k.inv_inertia_b + l0);
+  v.apply(v.ima_row, iia, v.imb_row, iib, f.rax, f.ray, f.rbx, f.rby, L::load(k.ix + l0),
+          L::load(k.iy + l0));
+  const V axial = axial_impulse_lanes<V>(k, l0);
+  v.wa = v.wa - iia * axial;
+  v.wb = v.wb + iib * axial;
+  v.store(k, l0, bodies);
+}
+
+// A revolute joint's rows, lane by lane: spring, motor, lower and upper limit, then the point.
+template <class V>
+FULCRUM_LANE_INLINE void solve_revolute_lanes(RevoluteBlock& k, int l0, SolverBody* bodies,
+                                              const SolverBodyExtra* extras,
+                                              const PointRule& rule) {
+  using L = Lane<V>;
+  const PointFrame<V> f = point_frame<V>(k, l0, bodies);
+  LaneBodies<V> v(k, l0, bodies);
+  const V zero = L::splat(0.0);
+  const V iia = L::load(k.inv_inertia_a + l0), iib = L::load(k.inv_inertia_b + l0);
+  const V theta = L::load(k.angle + l0) +
+                  (turned_lanes<V>(k.ib, l0, extras) - turned_lanes<V>(k.ia, l0, extras));
+  const V am = L::load(k.axial_mass + l0);
+
+  const auto spring = L::load(k.spring_on + l0) != zero;
+  if (any_lane(spring)) {
+    const V c = theta - L::load(k.target_angle + l0);
+    const V old = L::load(k.spring_impulse + l0);
+    const V lambda = -L::load(k.spring_mass_scale + l0) * am *
+                         ((v.wb - v.wa) + L::load(k.spring_rate + l0) * c) -
+                     L::load(k.spring_impulse_scale + l0) * old;
+    L::store(k.spring_impulse + l0, spring ? old + lambda : old);
+    turn_lanes(spring, lambda, iia, iib, v.wa, v.wb);
+  }
+  const auto motor = L::load(k.motor_on + l0) != zero;
+  if (any_lane(motor)) {
+    const V lambda = -am * ((v.wb - v.wa) - L::load(k.motor_speed + l0));
+    const V limit = L::load(k.max_motor_torque + l0) * L::splat(rule.h);
+    const V low = -limit;
+    const V old = L::load(k.motor_impulse + l0);
+    V acc = old + lambda;
+    acc = acc < low ? low : acc;  // std::clamp: min(max(acc, low), limit)
+    acc = limit < acc ? limit : acc;
+    L::store(k.motor_impulse + l0, motor ? acc : old);
+    turn_lanes(motor, acc - old, iia, iib, v.wa, v.wb);
+  }
+  const auto limited = L::load(k.limit_on + l0) != zero;
+  if (any_lane(limited)) {
+    // limit_bias: a speculative row while apart (c > 0), else the joints' feedback.
+    const V inv_h = L::splat(rule.inv_h);
+    const V rate = L::splat(rule.rate);
+    const V fb_ms = L::splat(rule.use_bias ? rule.mass_scale : 1.0);
+    const V fb_is = L::splat(rule.use_bias ? rule.impulse_scale : 0.0);
+    const V one = L::splat(1.0);
+    auto row = [&](V c, V speed, double* impulse) {
+      const auto apart = c > zero;
+      const V bias = apart ? c * inv_h : (rule.use_bias ? rate * c : zero);
+      const V ms = apart ? one : fb_ms;
+      const V is = apart ? zero : fb_is;
+      const V old = L::load(impulse + l0);
+      const V lambda = -ms * am * (speed + bias) - is * old;
+      V acc = old + lambda;
+      acc = acc < zero ? zero : acc;  // std::max(acc, 0.0)
+      L::store(impulse + l0, limited ? acc : old);
+      return acc - old;
+    };
+    const V lower = row(theta - L::load(k.lower_angle + l0), v.wb - v.wa, k.lower_impulse);
+    turn_lanes(limited, lower, iia, iib, v.wa, v.wb);
+    const V upper = row(L::load(k.upper_angle + l0) - theta, v.wa - v.wb, k.upper_impulse);
+    turn_lanes(limited, -upper, iia, iib, v.wa, v.wb);
+  }
+
+  point_row_lanes<V>(k, l0, f, v, rule);
   v.store(k, l0, bodies);
   if (rule.warm_next != nullptr) {
     LaneWarmRows<V> w(k, l0, rule.warm_next);
     w.apply(v.ima_row, iia, v.imb_row, iib, f.rax, f.ray, f.rbx, f.rby, L::load(k.ix + l0),
             L::load(k.iy + l0));
+    const V axial = axial_impulse_lanes<V>(k, l0);
+    w.a[2] = w.a[2] - iia * axial;
+    w.b[2] = w.b[2] + iib * axial;
     w.store();
   }
 }
 
 // Fetched while block k of [first, end) is solved: the block two on, and the next block's
 // bodies.
-FULCRUM_LANE_INLINE void fetch_ahead(const PointBlock* blocks, int k, int end,
+template <class Block>
+FULCRUM_LANE_INLINE void fetch_ahead(const Block* blocks, int k, int end,
                                      const SolverBody* bodies) {
   if (k + 2 < end) {
     const char* far = reinterpret_cast<const char*>(&blocks[k + 2]);
 #pragma GCC unroll 32
-    for (size_t line = 0; line < sizeof(PointBlock); line += 64) __builtin_prefetch(far + line);
+    for (size_t line = 0; line < sizeof(Block); line += 64) __builtin_prefetch(far + line);
   }
   if (k + 1 < end) {
-    const PointBlock& next = blocks[k + 1];
+    const Block& next = blocks[k + 1];
 #pragma GCC unroll 8
     for (int l = 0; l < kBlockLanes; ++l) {
       __builtin_prefetch(&bodies[next.ia[l]]);
@@ -153,6 +282,27 @@ void warm_point_blocks(PointBlock* blocks, int first, int end, SolverBody* bodie
     fetch_ahead(blocks, k, end, bodies);
     for (int l0 = 0; l0 < kBlockLanes; l0 += Lane<V>::kCount) {
       warm_point_lanes<V>(blocks[k], l0, bodies);
+    }
+  }
+}
+
+template <class V>
+void solve_revolute_blocks(RevoluteBlock* blocks, int first, int end, SolverBody* bodies,
+                           const SolverBodyExtra* extras, const PointRule& rule) {
+  for (int k = first; k < end; ++k) {
+    fetch_ahead(blocks, k, end, bodies);
+    for (int l0 = 0; l0 < kBlockLanes; l0 += Lane<V>::kCount) {
+      solve_revolute_lanes<V>(blocks[k], l0, bodies, extras, rule);
+    }
+  }
+}
+
+template <class V>
+void warm_revolute_blocks(RevoluteBlock* blocks, int first, int end, SolverBody* bodies) {
+  for (int k = first; k < end; ++k) {
+    fetch_ahead(blocks, k, end, bodies);
+    for (int l0 = 0; l0 < kBlockLanes; l0 += Lane<V>::kCount) {
+      warm_revolute_lanes<V>(blocks[k], l0, bodies);
     }
   }
 }

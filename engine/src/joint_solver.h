@@ -14,9 +14,8 @@ namespace fulcrum {
 struct Joint;
 
 // A revolute joint's angle rows for one tick: its settings and accumulated impulses, copied from
-// the Joint when the row is filled and written back after the tick (store_joint_impulses), so
-// that the passes read the row alone and never the large Joint record (a ragdoll's limited,
-// braked joints are touched a dozen times a tick).
+// the Joint when the row is filled, into its lane (joint_lanes.h), and written back after the
+// tick (store_joint_impulses).
 struct RevoluteRow {
   bool spring = false, motor = false, limit = false;  // enable_spring, _motor, _limit
   double target_angle = 0.0;
@@ -253,7 +252,6 @@ void solve_curve_joint(Joint& j, const JointRow& r, const JointStep& st, ScalarB
 void apply_spring_force(Joint& j, const JointRow& r, double h, ScalarBody& a, ScalarBody& b);
 
 void prepare_revolute_joint(const Joint& j, JointRow& r, const ScalarBody& a, const ScalarBody& b);
-// A revolute joint that is not a plain point is warm-started and solved from and into its row
-// (JointRow::revolute, ix, iy) by revolute_joint.h's inline functions.
+// Every revolute joint is warm-started and solved in lanes (joint_lanes.h), from its row.
 
 }  // namespace fulcrum

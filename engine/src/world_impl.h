@@ -203,18 +203,19 @@ class WorldImpl {
   void destroy_joint_at(int joint);
   // Whether a joint between the two bodies forbids their contact.
   bool joint_blocks_contact(int body_a, int body_b) const;
-  // Prepares the awake joints' rows and colours their plain points (joint_lanes.h). The rows of
-  // pins are kept only with `every_row` (the reference solver reads them); otherwise a tick
-  // whose rows are laid out as the last one's writes its pins straight into their lanes.
+  // Prepares the awake joints' rows and colours their revolute joints (joint_lanes.h). The rows
+  // of revolute joints are kept only with `every_row` (the reference solver reads them);
+  // otherwise a tick whose rows are laid out as the last one's writes them straight into their
+  // lanes.
   void prepare_joints(const std::vector<int>& awake, double h, bool every_row = false);
-  // The plain points first, in lanes (on `workers`' threads when not null), then every other
-  // row in row order. Without `points`, the plain points' warm start is left out (the last
-  // relax pass gathered it, solve_group).
-  void warm_start_joints(WorkerPool* workers, bool points = true);
-  // With `warm_next`, the plain points' lanes also add their accumulated impulses to it, for
+  // The revolute joints first, in lanes (on `workers`' threads when not null), then every other
+  // row in row order. Without `lanes`, the lanes' warm start is left out (the last relax pass
+  // gathered it, solve_group).
+  void warm_start_joints(WorkerPool* workers, bool lanes = true);
+  // With `warm_next`, the revolute joints' lanes also add their accumulated impulses to it, for
   // the next substep's warm start (PointRule::warm_next).
   void solve_joints(bool use_bias, WorkerPool* workers, VelocityBefore* warm_next = nullptr);
-  // Writes the tick's point impulses of the plain pins' lanes back to their joints.
+  // Writes the tick's impulses of the revolute joints' lanes back to their joints.
   void store_joint_impulses(WorkerPool* workers);
   // Spring force elements: one substep's forces into the solver bodies' velocities.
   void apply_spring_forces(double h);

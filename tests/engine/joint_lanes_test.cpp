@@ -87,35 +87,45 @@ SceneDef wheel(int spokes, double apart) {
   return s;
 }
 
-// Checks the last tick's colouring of `w`.
+// Checks the last tick's colourings of `w`: the plain points' and the other revolute joints'.
 void expect_valid_colouring(const World& w) {
   const WorldImpl& impl = w.impl();
   const ColouredPoints& cp = impl.coloured_points;
+  const ColouredRevolutes& rv = cp.revolutes;
   const SolverScratch& s = impl.solver_scratch;
-  // A pin's JointRow is not kept on a tick that keeps its layout: its slots are.
+  // A revolute joint's JointRow is not kept on a tick that keeps its layout: its slots are.
   const std::vector<SolverScratch::RowSlots>& rows = s.joint_row_slots;
   ASSERT_EQ(cp.lane_of_row.size(), rows.size());
   ASSERT_EQ(static_cast<int>(cp.colour_start.size()), cp.colours + 1);
-  // Every plain point has its own lane holding its bodies; every other row is left to the
-  // one-by-one solver, in row order.
-  std::set<int> lanes_used;
+  ASSERT_EQ(static_cast<int>(rv.colour_start.size()), rv.colours + 1);
+  // Every revolute joint has its own lane holding its bodies, among the points' blocks or the
+  // other revolute joints'; every other row is left to the one-by-one solver, in row order.
+  std::set<int> points_used, revolutes_used;
   std::vector<int> others;
   for (size_t k = 0; k < rows.size(); ++k) {
     const int lane = cp.lane_of_row[k];
-    if (!rows[k].plain_point) {
+    if (!rows[k].plain_point && !rows[k].revolute) {
       EXPECT_EQ(lane, -1);
       others.push_back(static_cast<int>(k));
       continue;
     }
     ASSERT_GE(lane, 0);
-    EXPECT_TRUE(lanes_used.insert(lane).second);
-    const PointBlock& b = cp.blocks[lane / kBlockLanes];
-    EXPECT_EQ(b.ia[lane % kBlockLanes], rows[k].ia);
-    EXPECT_EQ(b.ib[lane % kBlockLanes], rows[k].ib);
+    const PointBlock* b = nullptr;
+    if (rows[k].plain_point) {
+      EXPECT_TRUE(points_used.insert(lane).second);
+      b = &cp.blocks[lane / kBlockLanes];
+    } else {
+      EXPECT_TRUE(revolutes_used.insert(lane).second);
+      b = &rv.blocks[lane / kBlockLanes];
+    }
+    EXPECT_EQ(b->ia[lane % kBlockLanes], rows[k].ia);
+    EXPECT_EQ(b->ib[lane % kBlockLanes], rows[k].ib);
   }
-  EXPECT_EQ(static_cast<int>(lanes_used.size()), cp.points);
+  EXPECT_EQ(static_cast<int>(points_used.size()), cp.points);
+  EXPECT_EQ(static_cast<int>(revolutes_used.size()), rv.joints);
   EXPECT_EQ(cp.other_rows, others);
   expect_each_body_written_once_per_colour(cp.blocks, cp.colour_start, cp.colours, s.bodies);
+  expect_each_body_written_once_per_colour(rv.blocks, rv.colour_start, rv.colours, s.bodies);
 }
 
 TEST(JointLanes, ColoursNeverShareAMovableBody) {
@@ -130,17 +140,19 @@ TEST(JointLanes, ColoursNeverShareAMovableBody) {
   expect_valid_colouring(w);
 }
 
-TEST(JointLanes, AHubWithMorePinsThanColoursOverflowsAndLimitedJointsStayRows) {
+TEST(JointLanes, AHubWithMorePinsThanColoursOverflowsAndLimitedJointsHaveLanesOfTheirOwn) {
   World w = build(wheel(30, 0.0));
   w.step();
   const ColouredPoints& cp = w.impl().coloured_points;
   // 31 joints on the hub: 30 plain points (the anchor's and 29 spokes'), 24 coloured, 6 in the
-  // overflow; the limited spoke is a row of its own.
+  // overflow; the limited spoke is coloured on its own, among the other revolute joints.
   EXPECT_EQ(cp.points, 30);
   EXPECT_EQ(cp.colours, kMaxColours);
   const int overflow_blocks = static_cast<int>(cp.blocks.size()) - cp.colour_start[cp.colours];
   EXPECT_EQ(overflow_blocks, 1);
-  EXPECT_EQ(cp.other_rows.size(), 1u);
+  EXPECT_EQ(cp.revolutes.joints, 1);
+  EXPECT_EQ(cp.revolutes.colours, 1);
+  EXPECT_TRUE(cp.other_rows.empty());
   expect_valid_colouring(w);
   // The wheel turns as one body: after 2 s every pin holds within a millimetre.
   for (int i = 0; i < 120; ++i) w.step();
@@ -148,28 +160,34 @@ TEST(JointLanes, AHubWithMorePinsThanColoursOverflowsAndLimitedJointsStayRows) {
   EXPECT_LT(w.metrics().max_joint_error, 1e-3);
 }
 
-// The last relax pass of a substep gathers the pins' next warm start (PointRule::warm_next):
-// what it adds to the rows is, bit for bit, what the pins' warm-start pass applies to bodies at
-// rest with the impulses the relax pass leaves, on every path.
-TEST(JointLanes, TheLastRelaxPassGathersTheWarmStartAWarmStartPassApplies) {
+// The last relax pass of a substep gathers the lanes' next warm start (PointRule::warm_next):
+// what it adds to the rows is, bit for bit, what the lanes' warm-start pass applies to bodies at
+// rest with the impulses the relax pass leaves, on every path, after `ticks` ticks of `scene`.
+void expect_relax_gathers_the_warm_start(const SceneDef& scene, int ticks) {
   for (SimdPath path : supported_simd_paths()) {
     ASSERT_TRUE(set_simd_path(path).ok());
-    World w = build(grid(9));
-    for (int i = 0; i < 30; ++i) w.step();
+    World w = build(scene);
+    for (int i = 0; i < ticks; ++i) w.step();
     WorldImpl& impl = w.impl();
     ColouredPoints& cp = impl.coloured_points;
-    ASSERT_GT(cp.points, 100);
+    ASSERT_GT(cp.points + cp.revolutes.joints, 100);
     std::vector<SolverBody> bodies = impl.solver_scratch.bodies;
     std::vector<VelocityBefore> gathered(bodies.size());
     PointRule relax;
     relax.use_bias = false;
     relax.warm_next = gathered.data();
-    solve_points(cp, bodies.data(), relax, nullptr);
+    relax.h = impl.settings.dt / impl.settings.substeps;
+    relax.inv_h = 1.0 / relax.h;
+    solve_points(cp, bodies.data(), impl.solver_scratch.body_extras.data(), relax, nullptr);
     expect_gathered_warm_start(
         gathered, bodies, [&](SolverBody* rest) { warm_start_points(cp, rest, nullptr); },
         simd_path_name(path));
   }
   ASSERT_TRUE(set_simd_path(SimdPath::kAuto).ok());
+}
+
+TEST(JointLanes, TheLastRelaxPassGathersTheWarmStartAWarmStartPassApplies) {
+  expect_relax_gathers_the_warm_start(grid(9), 30);
 }
 
 TEST(JointLanes, EveryPathGivesTheScalarBits) {
@@ -231,9 +249,8 @@ TEST(JointLanes, AKeptLayoutGivesTheBitsOfANewOne) {
   EXPECT_GT(joint_error, 0.0);
 }
 
-// 50 ragdolls (limited revolute joints: rows of their own, a group per ragdoll), and six
-// two-link chains of limited joints hanging from the ground: the ground is the static slot, so
-// those chains' rows are one group.
+// 50 ragdolls (limited, braked revolute joints: lanes of their own), and six two-link chains of
+// limited joints hanging from the ground.
 SceneDef ragdolls_and_hanging_chains() {
   SceneDef s = scenes::builtin("ragdolls").value();
   const int ground = 0;
@@ -253,6 +270,88 @@ SceneDef ragdolls_and_hanging_chains() {
     }
   }
   return s;
+}
+
+// The same with every joint a weld joint at the revolute joint's anchors, its angle soft
+// (rows of their own, a group per ragdoll; the chains hang from the ground, the static slot,
+// so their rows are one group).
+SceneDef welded_ragdolls_and_hanging_chains() {
+  SceneDef s = ragdolls_and_hanging_chains();
+  for (SceneJoint& joint : s.joints) {
+    const auto& revolute = std::get<RevoluteJointDef>(joint.def);
+    WeldJointDef weld;
+    weld.local_anchor_a = revolute.local_anchor_a;
+    weld.local_anchor_b = revolute.local_anchor_b;
+    weld.reference_angle = revolute.reference_angle;
+    weld.angular_hertz = 2.0;
+    weld.angular_damping_ratio = 0.7;
+    joint.def = weld;
+  }
+  return s;
+}
+
+// Ragdolls with every angle row a revolute joint has: limits, joint friction (a motor at speed
+// 0) and springs toward their rest angles, as the benchmark's rain has them; `count` of them
+// dropped onto the ground from 2 m, with one more wheel turned by a motor at 3 rad/s.
+SceneDef sprung_ragdolls(int count) {
+  SceneDef s;
+  scenes::add_ground(&s, 60.0);
+  for (int i = 0; i < count; ++i) {
+    scenes::HumanOptions o;
+    o.feet = Vec2(-0.8 * count / 2 + 0.8 * i, 2.0 + 0.3 * (i % 4));
+    o.group = -(i + 1);
+    o.hertz = 5.0;
+    o.damping_ratio = 0.5;
+    scenes::add_human(&s, o);
+  }
+  s.bodies.push_back(ball(Vec2(0.0, 8.0), 0.5));
+  RevoluteJointDef motor;
+  motor.local_anchor_a = Vec2(0.0, 8.0);
+  motor.enable_motor = true;
+  motor.motor_speed = 3.0;
+  motor.max_motor_torque = 50.0;
+  s.joints.push_back(SceneJoint{0, static_cast<int>(s.bodies.size()) - 1, motor});
+  return s;
+}
+
+TEST(JointLanes, RevoluteJointsWithAngleRowsAreColouredInLanesOfTheirOwn) {
+  SceneDef scene = sprung_ragdolls(20);
+  World w = build(scene);
+  for (int i = 0; i < 30; ++i) w.step();
+  const ColouredPoints& cp = w.impl().coloured_points;
+  // Every joint has angle rows: none is a plain point, none is left to the one-by-one solver.
+  EXPECT_EQ(cp.points, 0);
+  EXPECT_EQ(cp.revolutes.joints, static_cast<int>(scene.joints.size()));
+  EXPECT_TRUE(cp.other_rows.empty());
+  // A ragdoll's torso holds the most joints (its neck, shoulders and hips): a handful of
+  // colours, no overflow.
+  EXPECT_LE(cp.revolutes.colours, 6);
+  EXPECT_EQ(cp.revolutes.colour_start[cp.revolutes.colours],
+            static_cast<int>(cp.revolutes.blocks.size()));
+  expect_valid_colouring(w);
+  // The wheel's motor holds its speed within a hundredth (it needs 2.2 N m of its 50 at most),
+  // and the ragdolls' limits hold within a degree.
+  const BodyId wheel = w.bodies().back();
+  for (int i = 0; i < 60; ++i) w.step();
+  EXPECT_NEAR(w.body_state(wheel).value().angular_velocity, 3.0, 0.01);
+  EXPECT_TRUE(all_finite(w));
+  EXPECT_LT(w.metrics().max_joint_error, 0.02);
+}
+
+TEST(JointLanes, TheLastRelaxPassGathersTheRevoluteJointsWarmStart) {
+  expect_relax_gathers_the_warm_start(sprung_ragdolls(20), 60);
+}
+
+TEST(JointLanes, EveryPathGivesTheScalarBitsOfTheRevoluteJoints) {
+  expect_simd_paths_agree(sprung_ragdolls(24), 120);
+}
+
+TEST(JointLanes, EveryThreadCountGivesOneThreadsBitsOfTheRevoluteJoints) {
+  // 60 ragdolls: 600 joints, colours of several chunks each.
+  expect_thread_counts_agree(sprung_ragdolls(60), 90, {1, 2, 3, 4}, [](const World& w) {
+    const ColouredRevolutes& rv = w.impl().coloured_points.revolutes;
+    EXPECT_GE(rv.colour_start[1] - rv.colour_start[0], 2 * kBlocksPerChunk);
+  });
 }
 
 // Checks the last tick's groups of the rows that are not plain points (ColouredPoints).
@@ -287,10 +386,10 @@ void expect_valid_groups(const World& w) {
 }
 
 TEST(JointLanes, OtherRowsInGroupsShareNoBodyAcrossChunks) {
-  SceneDef scene = ragdolls_and_hanging_chains();
+  SceneDef scene = welded_ragdolls_and_hanging_chains();
   World one = build(scene);
   one.step();
-  // 512 rows of limited joints; one thread needs no groups.
+  // 512 rows of weld joints; one thread needs no groups.
   EXPECT_EQ(one.impl().coloured_points.other_rows.size(), 512u);
   EXPECT_TRUE(one.impl().coloured_points.chunk_start.empty());
   World two = build(scene);
@@ -303,9 +402,10 @@ TEST(JointLanes, OtherRowsInGroupsShareNoBodyAcrossChunks) {
 
 TEST(JointLanes, GroupsOfOtherRowsGiveOneThreadsBits) {
   // The ragdolls fall, land and tangle for 1.5 s, their groups shared among threads.
-  expect_thread_counts_agree(ragdolls_and_hanging_chains(), 90, {1, 2, 3, 4}, [](const World& w) {
-    EXPECT_EQ(w.impl().coloured_points.chunk_start.empty(), w.threads() == 1);
-  });
+  expect_thread_counts_agree(
+      welded_ragdolls_and_hanging_chains(), 90, {1, 2, 3, 4}, [](const World& w) {
+        EXPECT_EQ(w.impl().coloured_points.chunk_start.empty(), w.threads() == 1);
+      });
 }
 
 }  // namespace
