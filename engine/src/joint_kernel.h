@@ -97,16 +97,16 @@ FULCRUM_LANE_INLINE void point_row_lanes(PointBlock& k, int l0, const PointFrame
       }
       const V fct = L::load(fs);
       const V dx = fct * tx, dy = fct * ty;
-      cx = over ? inv_det * (k22 * dx - k12 * dy) : zero;
-      cy = over ? inv_det * (k11 * dy - k12 * dx) : zero;
+      cx = lane_select(over, inv_det * (k22 * dx - k12 * dy), zero);
+      cy = lane_select(over, inv_det * (k11 * dy - k12 * dx), zero);
     }
   }
   px = px + cx;
   py = py + cy;
-  px = singular ? zero : px;
-  py = singular ? zero : py;
-  L::store(k.ix + l0, singular ? ox : ox + px);
-  L::store(k.iy + l0, singular ? oy : oy + py);
+  px = lane_select(singular, zero, px);
+  py = lane_select(singular, zero, py);
+  L::store(k.ix + l0, lane_select(singular, ox, ox + px));
+  L::store(k.iy + l0, lane_select(singular, oy, oy + py));
   v.apply(v.ima_row, iia, v.imb_row, iib, f.rax, f.ray, f.rbx, f.rby, px, py);
 }
 
@@ -142,8 +142,8 @@ FULCRUM_LANE_INLINE V turned_lanes(const int32_t* slots, int l0, const SolverBod
 // (revolute_detail::apply_angular); elsewhere the spins stay as they are.
 template <class V, class M>
 FULCRUM_LANE_INLINE void turn_lanes(M on, V lambda, V iia, V iib, V& wa, V& wb) {
-  wa = on ? wa - iia * lambda : wa;
-  wb = on ? wb + iib * lambda : wb;
+  wa = lane_select(on, wa - iia * lambda, wa);
+  wb = lane_select(on, wb + iib * lambda, wb);
 }
 
 // The warm start's angle impulse: what the spring, motor and limits have accumulated.
@@ -191,19 +191,16 @@ FULCRUM_LANE_INLINE void solve_revolute_lanes(RevoluteBlock& k, int l0, SolverBo
     const V lambda = -L::load(k.spring_mass_scale + l0) * am *
                          ((v.wb - v.wa) + L::load(k.spring_rate + l0) * c) -
                      L::load(k.spring_impulse_scale + l0) * old;
-    L::store(k.spring_impulse + l0, spring ? old + lambda : old);
+    L::store(k.spring_impulse + l0, lane_select(spring, old + lambda, old));
     turn_lanes(spring, lambda, iia, iib, v.wa, v.wb);
   }
   const auto motor = L::load(k.motor_on + l0) != zero;
   if (any_lane(motor)) {
     const V lambda = -am * ((v.wb - v.wa) - L::load(k.motor_speed + l0));
     const V limit = L::load(k.max_motor_torque + l0) * L::splat(rule.h);
-    const V low = -limit;
     const V old = L::load(k.motor_impulse + l0);
-    V acc = old + lambda;
-    acc = acc < low ? low : acc;  // std::clamp: min(max(acc, low), limit)
-    acc = limit < acc ? limit : acc;
-    L::store(k.motor_impulse + l0, motor ? acc : old);
+    const V acc = lane_min(lane_max(old + lambda, -limit), limit);  // std::clamp's definition
+    L::store(k.motor_impulse + l0, lane_select(motor, acc, old));
     turn_lanes(motor, acc - old, iia, iib, v.wa, v.wb);
   }
   const auto limited = L::load(k.limit_on + l0) != zero;
@@ -216,14 +213,13 @@ FULCRUM_LANE_INLINE void solve_revolute_lanes(RevoluteBlock& k, int l0, SolverBo
     const V one = L::splat(1.0);
     auto row = [&](V c, V speed, double* impulse) {
       const auto apart = c > zero;
-      const V bias = apart ? c * inv_h : (rule.use_bias ? rate * c : zero);
-      const V ms = apart ? one : fb_ms;
-      const V is = apart ? zero : fb_is;
+      const V bias = lane_select(apart, c * inv_h, rule.use_bias ? rate * c : zero);
+      const V ms = lane_select(apart, one, fb_ms);
+      const V is = lane_select(apart, zero, fb_is);
       const V old = L::load(impulse + l0);
       const V lambda = -ms * am * (speed + bias) - is * old;
-      V acc = old + lambda;
-      acc = acc < zero ? zero : acc;  // std::max(acc, 0.0)
-      L::store(impulse + l0, limited ? acc : old);
+      const V acc = lane_max(old + lambda, zero);  // std::max's definition
+      L::store(impulse + l0, lane_select(limited, acc, old));
       return acc - old;
     };
     const V lower = row(theta - L::load(k.lower_angle + l0), v.wb - v.wa, k.lower_impulse);
