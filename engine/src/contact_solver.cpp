@@ -130,6 +130,9 @@ uint8_t drive_kind(const Body& b) {
   return plain ? kGravityOnly : kOwnDrive;
 }
 
+// How far ahead the walks over the awake bodies' records fetch them.
+constexpr size_t kBodiesAhead = 8;
+
 // `pseudo`: the tick solves split impulses, whose pseudo velocities get an array of their own.
 // Each body's drive for substeps of length h is worked out as its record is read (drive_kinds,
 // and drives for the bodies with one of their own).
@@ -162,6 +165,15 @@ void load_bodies(WorldImpl& w, const std::vector<int>& awake, bool pseudo, doubl
   // Each awake body writes its own slot (and body_slot entry: awake holds each body once).
   for_chunks(pool, awake.size(), 1024, [&](size_t lo, size_t hi) {
     for (size_t k = lo; k < hi; ++k) {
+      // The records are cold: each is fetched a few bodies ahead, the four lines read here
+      // (from the type to the drive's factors).
+      if (k + kBodiesAhead < hi) {
+        const Body& far = w.bodies[awake[k + kBodiesAhead]];
+        __builtin_prefetch(&far.type);
+        __builtin_prefetch(&far.center);
+        __builtin_prefetch(&far.inv_inertia);
+        __builtin_prefetch(&far.gravity_scale);
+      }
       const Body& b = w.bodies[awake[k]];
       s.body_slot[awake[k]] = static_cast<int>(k + 1);
       s.slot_body[k + 1] = awake[k];
@@ -458,6 +470,9 @@ void prepare_lane(const WorldImpl& w, SolverScratch& s, const RowRule& r, size_t
   }
 }
 
+// How far ahead the walks over the rows fetch their contacts.
+constexpr size_t kRowsAhead = 8;
+
 // Soft contacts: each row is prepared where it is used, straight into its lane
 // (contact_lanes.h), restitution's approach speeds included. Coloured in id order first, from
 // the rows' bodies.
@@ -477,7 +492,18 @@ void prepare_coloured(WorldImpl& w, SolverScratch& s, const std::vector<ContactB
   colour_contacts(s.row_bodies, s.slot_dynamic, cc);
   const RowRule r = row_rule(w, h);
   for_chunks(pool, n_rows, 256, [&](size_t lo, size_t hi) {
-    for (size_t k = lo; k < hi; ++k) prepare_lane(w, s, r, k, cc);
+    for (size_t k = lo; k < hi; ++k) {
+      // The touching contacts are a sparse walk through the pool: each is fetched a few rows
+      // ahead, the lines from its friction to its manifold's count (at most 48 bytes apart).
+      if (k + kRowsAhead < hi) {
+        const Contact& far = w.contacts[s.contacts[k + kRowsAhead]];
+        __builtin_prefetch(&far.friction);
+        __builtin_prefetch(&far.manifold.points[0].normal_impulse);
+        __builtin_prefetch(&far.manifold.points[1].normal_impulse);
+        __builtin_prefetch(&far.manifold.count);
+      }
+      prepare_lane(w, s, r, k, cc);
+    }
   });
   // Restitution's rows, which prepare_lane noted.
   s.restitution_rows.clear();
@@ -979,7 +1005,15 @@ void finalize_bodies(WorldImpl& w, const std::vector<int>& awake, SolverScratch&
                      size_t first, size_t end) {
   const double max_speed = w.settings.max_linear_speed;
   const double max_turn = 2.0 * max_turn_rate(h);
+  // The bodies' records are cold (a walk over every awake body's since load_bodies): each is
+  // fetched a few bodies ahead of its stores, its first three lines (the transform to the torque).
   for (size_t k = first; k < end; ++k) {
+    if (k + kBodiesAhead < end) {
+      const Body& far = w.bodies[awake[k + kBodiesAhead]];
+      __builtin_prefetch(&far.xf, 1);
+      __builtin_prefetch(&far.center, 1);
+      __builtin_prefetch(&far.force, 1);
+    }
     Body& b = w.bodies[awake[k]];
     SolverBody& sb = s.bodies[k + 1];
     cap_speeds(sb, max_speed, max_turn);
