@@ -144,7 +144,6 @@ void WorldImpl::synchronize_awake(const std::vector<int>& awake) {
   // chunk keeping its own list; the lists are then taken in chunk order, so the moves are
   // the same, in the same order, at any thread count.
   constexpr size_t kBodiesPerChunk = 256;
-  constexpr size_t kBodiesAhead = 8;
   const int chunks = static_cast<int>((awake.size() + kBodiesPerChunk - 1) / kBodiesPerChunk);
   if (static_cast<int>(scratch_moves.size()) < chunks) scratch_moves.resize(chunks);
   auto chunk = [&](int i) {
@@ -155,8 +154,8 @@ void WorldImpl::synchronize_awake(const std::vector<int>& awake) {
     for (size_t k = lo; k < hi; ++k) {
       // The records are cold in a large world (the tick before walked them all): each is
       // fetched a few bodies ahead, the lines find_moves reads (transform, velocity, shapes).
-      if (k + kBodiesAhead < hi) {
-        const Body& far = bodies[awake[k + kBodiesAhead]];
+      if (k + kFetchAhead < hi) {
+        const Body& far = bodies[awake[k + kFetchAhead]];
         __builtin_prefetch(&far.xf);
         __builtin_prefetch(&far.v);
         __builtin_prefetch(&far.shapes);

@@ -377,7 +377,6 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
     if (reusable) cache_manifold(c, sa.geometry, ba.xf, sb.geometry, bb.xf, cache);
   };
   constexpr size_t kContactsPerChunk = 64;
-  constexpr size_t kContactsAhead = 8;
   const int chunks = static_cast<int>((list.size() + kContactsPerChunk - 1) / kContactsPerChunk);
   // With contact budgets on, each refreshed contact's load figures (budget.cpp), and each
   // chunk's largest (a maximum, the same in any order).
@@ -406,8 +405,8 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
     for (size_t k = lo; k < hi; ++k) {
       // Each contact is fetched a few ahead of its refresh: the lines of its shapes and of its
       // manifold's count, which every refresh reads.
-      if (k + kContactsAhead < hi) {
-        const Contact& far = contacts[list[k + kContactsAhead]];
+      if (k + kFetchAhead < hi) {
+        const Contact& far = contacts[list[k + kFetchAhead]];
         __builtin_prefetch(&far.shape_a);
         __builtin_prefetch(&far.manifold.count);
       }

@@ -130,9 +130,6 @@ uint8_t drive_kind(const Body& b) {
   return plain ? kGravityOnly : kOwnDrive;
 }
 
-// How far ahead the walks over the awake bodies' records fetch them.
-constexpr size_t kBodiesAhead = 8;
-
 // `pseudo`: the tick solves split impulses, whose pseudo velocities get an array of their own.
 // Each body's drive for substeps of length h is worked out as its record is read (drive_kinds,
 // and drives for the bodies with one of their own).
@@ -167,8 +164,8 @@ void load_bodies(WorldImpl& w, const std::vector<int>& awake, bool pseudo, doubl
     for (size_t k = lo; k < hi; ++k) {
       // The records are cold: each is fetched a few bodies ahead, the four lines read here
       // (from the type to the drive's factors).
-      if (k + kBodiesAhead < hi) {
-        const Body& far = w.bodies[awake[k + kBodiesAhead]];
+      if (k + kFetchAhead < hi) {
+        const Body& far = w.bodies[awake[k + kFetchAhead]];
         __builtin_prefetch(&far.type);
         __builtin_prefetch(&far.center);
         __builtin_prefetch(&far.inv_inertia);
@@ -470,9 +467,6 @@ void prepare_lane(const WorldImpl& w, SolverScratch& s, const RowRule& r, size_t
   }
 }
 
-// How far ahead the walks over the rows fetch their contacts.
-constexpr size_t kRowsAhead = 8;
-
 // Soft contacts: each row is prepared where it is used, straight into its lane
 // (contact_lanes.h), restitution's approach speeds included. Coloured in id order first, from
 // the rows' bodies.
@@ -495,8 +489,8 @@ void prepare_coloured(WorldImpl& w, SolverScratch& s, const std::vector<ContactB
     for (size_t k = lo; k < hi; ++k) {
       // The touching contacts are a sparse walk through the pool: each is fetched a few rows
       // ahead, the lines from its friction to its manifold's count (at most 48 bytes apart).
-      if (k + kRowsAhead < hi) {
-        const Contact& far = w.contacts[s.contacts[k + kRowsAhead]];
+      if (k + kFetchAhead < hi) {
+        const Contact& far = w.contacts[s.contacts[k + kFetchAhead]];
         __builtin_prefetch(&far.friction);
         __builtin_prefetch(&far.manifold.points[0].normal_impulse);
         __builtin_prefetch(&far.manifold.points[1].normal_impulse);
@@ -957,10 +951,9 @@ struct ImpulseKeep {
 void store_impulses(WorldImpl& w, const SolverScratch& s, size_t first, size_t end) {
   const ImpulseKeep keep(w);
   // The contacts are large and cold: each is fetched a few rows ahead of its store.
-  constexpr size_t kAhead = 8;
   for (size_t k = first; k < end; ++k) {
-    if (k + kAhead < end) {
-      const ManifoldPoint* far = w.contacts[s.contacts[k + kAhead]].manifold.points;
+    if (k + kFetchAhead < end) {
+      const ManifoldPoint* far = w.contacts[s.contacts[k + kFetchAhead]].manifold.points;
       __builtin_prefetch(&far[0].normal_impulse, 1);
       __builtin_prefetch(&far[1].normal_impulse, 1);
     }
@@ -979,10 +972,10 @@ void store_lane_impulses(WorldImpl& w, const SolverScratch& s, const ColouredCon
   const int* const row_of_lane = cc.row_of_lane.data();
   const size_t lane_end = end * kBlockLanes;
   // In lane order the contacts are scattered: each is fetched a few lanes ahead of its store.
-  constexpr size_t kAhead = 8;
   for (size_t lane = first * kBlockLanes; lane < lane_end; ++lane) {
-    if (lane + kAhead < lane_end && row_of_lane[lane + kAhead] >= 0) {
-      const ManifoldPoint* far = w.contacts[s.contacts[row_of_lane[lane + kAhead]]].manifold.points;
+    if (lane + kFetchAhead < lane_end && row_of_lane[lane + kFetchAhead] >= 0) {
+      const ManifoldPoint* far =
+          w.contacts[s.contacts[row_of_lane[lane + kFetchAhead]]].manifold.points;
       __builtin_prefetch(&far[0].normal_impulse, 1);
       __builtin_prefetch(&far[1].normal_impulse, 1);
     }
@@ -1008,8 +1001,8 @@ void finalize_bodies(WorldImpl& w, const std::vector<int>& awake, SolverScratch&
   // The bodies' records are cold (a walk over every awake body's since load_bodies): each is
   // fetched a few bodies ahead of its stores, its first three lines (the transform to the torque).
   for (size_t k = first; k < end; ++k) {
-    if (k + kBodiesAhead < end) {
-      const Body& far = w.bodies[awake[k + kBodiesAhead]];
+    if (k + kFetchAhead < end) {
+      const Body& far = w.bodies[awake[k + kFetchAhead]];
       __builtin_prefetch(&far.xf, 1);
       __builtin_prefetch(&far.center, 1);
       __builtin_prefetch(&far.force, 1);

@@ -192,7 +192,7 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h, bool eve
     // All awake bodies (not one budget group), most bodies in all: one pass over the joint pool
     // finds the same joints, already in id order.
     for (size_t ji = 0; ji < joints.size(); ++ji) {
-      if (ji + kJointFetchAhead < joints.size()) fetch_joint(joints[ji + kJointFetchAhead]);
+      if (ji + kFetchAhead < joints.size()) fetch_joint(joints[ji + kFetchAhead]);
       const Joint& j = joints[ji];
       if (j.alive && (bodies[j.body_a].awake || bodies[j.body_b].awake)) {
         s.joints.push_back(static_cast<int>(ji));
@@ -314,7 +314,7 @@ void WorldImpl::prepare_joints(const std::vector<int>& awake, double h, bool eve
       const size_t hi = std::min(lo + kJointsPerChunk, n_rows);
       JointRow pin;  // revolute rows; those of plain pins are written up to `soft` only
       for (size_t k = lo; k < hi; ++k) {
-        if (k + kJointFetchAhead < hi) fetch_joint(joints[s.joints[k + kJointFetchAhead]]);
+        if (k + kFetchAhead < hi) fetch_joint(joints[s.joints[k + kFetchAhead]]);
         if (!placing) {
           fill_row(k, s.joint_rows[k]);
           note_slots(k);
@@ -508,7 +508,7 @@ void WorldImpl::break_joints() {
   const double inv_h = settings.substeps / settings.dt;
   const std::vector<int>& list = solver_scratch.joints;
   for (size_t k = 0; k < list.size(); ++k) {
-    if (k + kJointFetchAhead < list.size()) fetch_joint(joints[list[k + kJointFetchAhead]]);
+    if (k + kFetchAhead < list.size()) fetch_joint(joints[list[k + kFetchAhead]]);
     const int ji = list[k];
     Joint& j = joints[ji];
     if (!j.alive || !may_break(j)) continue;
