@@ -378,6 +378,25 @@ struct LaneBodies {
                                  V py) {
     apply_lane_impulse(vax, vay, wa, vbx, vby, wb, ima, iia, imb, iib, rax, ray, rbx, rby, px, py);
   }
+
+  // An impulse lambda along the unit axis d applied to B and -lambda d to A, with rda = ra x d
+  // and rdb = rb x d: each velocity takes lambda times a factor that does not depend on lambda,
+  // so a row's result reaches the velocities in one product and one sum.
+  FULCRUM_LANE_INLINE void apply_along(V lambda, V ima, V iia, V imb, V iib, V dx, V dy, V rda,
+                                       V rdb) {
+    vax -= lambda * (ima * dx);
+    vay -= lambda * (ima * dy);
+    wa -= lambda * (iia * rda);
+    vbx += lambda * (imb * dx);
+    vby += lambda * (imb * dy);
+    wb += lambda * (iib * rdb);
+  }
+
+  // The relative speed along the unit axis d at the points ra, rb (rda = ra x d, rdb = rb x d):
+  // (vb - va) . d + wb rdb - wa rda, two products deep in the velocities.
+  FULCRUM_LANE_INLINE V speed_along(V dx, V dy, V rda, V rdb) const {
+    return ((vbx - vax) * dx + (vby - vay) * dy) + (wb * rdb - wa * rda);
+  }
 };
 
 // A group of lanes' rows in an array with one VelocityBefore per solver slot (the next
@@ -542,6 +561,12 @@ FULCRUM_LANE_INLINE void approach_lanes(const ContactBlock& k, ContactBlockRest&
 
 // One pass over a group of lanes: both normal rows, then both friction rows (contact_solver.cpp
 // states the rows). Returns the largest corrective impulse of the lanes.
+//
+// A pass is bound by each lane's chain of rows: every row reads the velocities the row before
+// wrote. So each row is written with as few operations as possible between the velocities it
+// reads and those it writes; what does not depend on them (the cross products, the mass and its
+// softness scale times the bias, the impulse scale times the old impulse) is worked out beside
+// the chain: lambda = k vn + (k bias - s old) with k = -m_c * mass scale.
 template <class V, bool kRefresh>
 FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, ContactBlockRest& rest, int l0,
                                   SolverBody* bodies, const LaneRule& rule) {
@@ -581,11 +606,11 @@ FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, ContactBlockRest& rest, int l
       mass_scale = one;
       impulse_scale = zero;
     }
-    V dvx = (v.vbx - v.wb * rby) - (v.vax - v.wa * ray);
-    V dvy = (v.vby + v.wb * rbx) - (v.vay + v.wa * rax);
-    V vn = dvx * nx + dvy * ny;
+    const V rna = rax * ny - ray * nx, rnb = rbx * ny - rby * nx;
+    V vn = v.speed_along(nx, ny, rna, rnb);
     V old = L::load(p.normal_impulse + l0);
-    V lambda = -L::load(p.normal_mass + l0) * mass_scale * (vn + bias) - impulse_scale * old;
+    const V kn = -L::load(p.normal_mass + l0) * mass_scale;
+    V lambda = kn * vn + (kn * bias - impulse_scale * old);
     V acc = lane_max(old + lambda, zero);
     lambda = acc - old;
     L::store(p.normal_impulse + l0, acc);
@@ -593,7 +618,7 @@ FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, ContactBlockRest& rest, int l
       double* max_normal = rest.points[i].max_normal_impulse + l0;
       L::store(max_normal, lane_max(L::load(max_normal), acc));
     }
-    v.apply(ima, iia, imb, iib, rax, ray, rbx, rby, lambda * nx, lambda * ny);
+    v.apply_along(lambda, ima, iia, imb, iib, nx, ny, rna, rnb);
     if (rule.want_largest) largest = lane_max(largest, lane_max(lambda, -lambda));
   }
   // Friction along t = (ny, -nx), bounded by the normal impulses just found.
@@ -603,15 +628,15 @@ FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, ContactBlockRest& rest, int l
   for (LanePoint& p : k.points) {
     const V rax = L::load(p.rax + l0), ray = L::load(p.ray + l0);
     const V rbx = L::load(p.rbx + l0), rby = L::load(p.rby + l0);
-    V dvx = (v.vbx - v.wb * rby) - (v.vax - v.wa * ray);
-    V dvy = (v.vby + v.wb * rbx) - (v.vay + v.wa * rax);
+    const V rta = rax * ty - ray * tx, rtb = rbx * ty - rby * tx;
+    V vt = v.speed_along(tx, ty, rta, rtb);
     V old = L::load(p.tangent_impulse + l0);
-    V lambda = -L::load(p.tangent_mass + l0) * (dvx * tx + dvy * ty);
+    V lambda = -L::load(p.tangent_mass + l0) * vt;
     V limit = friction * L::load(p.normal_impulse + l0);
     V acc = lane_clamp(old + lambda, -limit, limit);
     lambda = acc - old;
     L::store(p.tangent_impulse + l0, acc);
-    v.apply(ima, iia, imb, iib, rax, ray, rbx, rby, lambda * tx, lambda * ty);
+    v.apply_along(lambda, ima, iia, imb, iib, tx, ty, rta, rtb);
     if (rule.want_largest) largest = lane_max(largest, lane_max(lambda, -lambda));
   }
   v.store(k, l0, bodies);
