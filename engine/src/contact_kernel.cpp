@@ -182,7 +182,7 @@ static_assert(kMaxColours <= 32, "colours are bits of a uint32_t");
 namespace {
 
 void clear_point(LanePoint* q, LanePointRest* r, int l) {
-  q->rax[l] = q->ray[l] = q->rbx[l] = q->rby[l] = 0.0;
+  q->rna[l] = q->rnb[l] = q->rta[l] = q->rtb[l] = 0.0;
   q->separation[l] = r->base_separation[l] = 0.0;
   q->normal_mass[l] = q->tangent_mass[l] = 0.0;
   q->normal_impulse[l] = q->tangent_impulse[l] = r->max_normal_impulse[l] = 0.0;

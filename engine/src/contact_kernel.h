@@ -329,6 +329,19 @@ FULCRUM_LANE_INLINE void apply_lane_impulse(V& vax, V& vay, V& wa, V& vbx, V& vb
   wb += iib * (rbx * py - rby * px);
 }
 
+// The impulse (px, py) applied to B and its opposite to A, with the moments it has about each
+// body's centre given: ma = ra x P and mb = rb x P.
+template <class V>
+FULCRUM_LANE_INLINE void apply_lane_moments(V& vax, V& vay, V& wa, V& vbx, V& vby, V& wb, V ima,
+                                            V iia, V imb, V iib, V px, V py, V ma, V mb) {
+  vax -= ima * px;
+  vay -= ima * py;
+  wa -= iia * ma;
+  vbx += imb * px;
+  vby += imb * py;
+  wb += iib * mb;
+}
+
 // The velocities of a group of lanes' bodies, loaded from and stored to the solver bodies.
 // Block is a ContactBlock or a PointBlock (joint_kernel.h): anything with ia, ib, write_a and
 // write_b per lane.
@@ -377,6 +390,11 @@ struct LaneBodies {
   FULCRUM_LANE_INLINE void apply(V ima, V iia, V imb, V iib, V rax, V ray, V rbx, V rby, V px,
                                  V py) {
     apply_lane_impulse(vax, vay, wa, vbx, vby, wb, ima, iia, imb, iib, rax, ray, rbx, rby, px, py);
+  }
+
+  // P applied to B and -P to A, with its moments ma = ra x P and mb = rb x P.
+  FULCRUM_LANE_INLINE void apply_moments(V ima, V iia, V imb, V iib, V px, V py, V ma, V mb) {
+    apply_lane_moments(vax, vay, wa, vbx, vby, wb, ima, iia, imb, iib, px, py, ma, mb);
   }
 
   // An impulse lambda along the unit axis d applied to B and -lambda d to A, with rda = ra x d
@@ -436,6 +454,11 @@ struct LaneWarmRows {
                        px, py);
   }
 
+  // As LaneBodies::apply_moments.
+  FULCRUM_LANE_INLINE void apply_moments(V ima, V iia, V imb, V iib, V px, V py, V ma, V mb) {
+    apply_lane_moments(a[0], a[1], a[2], b[0], b[1], b[2], ima, iia, imb, iib, px, py, ma, mb);
+  }
+
   FULCRUM_LANE_INLINE void store() {
     L::store_rows(a, out_a);
     L::store_rows(b, out_b);
@@ -453,8 +476,9 @@ FULCRUM_LANE_INLINE void apply_warm_points(const ContactBlock& k, int l0, To& to
     const V ni = L::load(p.normal_impulse + l0), ti = L::load(p.tangent_impulse + l0);
     const V px = ni * nx + ti * ny;
     const V py = ni * ny - ti * nx;
-    to.apply(ima, iia, imb, iib, L::load(p.rax + l0), L::load(p.ray + l0), L::load(p.rbx + l0),
-             L::load(p.rby + l0), px, py);
+    const V ma = ni * L::load(p.rna + l0) + ti * L::load(p.rta + l0);
+    const V mb = ni * L::load(p.rnb + l0) + ti * L::load(p.rtb + l0);
+    to.apply_moments(ima, iia, imb, iib, px, py, ma, mb);
   }
 }
 
@@ -503,18 +527,17 @@ FULCRUM_LANE_INLINE void separation_lanes(ContactBlock& k, const ContactBlockRes
   using L = Lane<V>;
   V a[4], b[4];
   load_motion_rows<V>(k, l0, bodies, a, b);
-  const V ddx = b[0] - a[0], ddy = b[1] - a[1];
-  const V qca = a[2], qsa = a[3], qcb = b[2], qsb = b[3];
+  // The centres' motion along n, and each anchor turned by q = (qc, qs) along n:
+  // n . (q r) = qs (r x n) - qc (r x t).
   const V nx = L::load(k.nx + l0), ny = L::load(k.ny + l0);
+  const V dn = (b[0] - a[0]) * nx + (b[1] - a[1]) * ny;
+  const V qca = a[2], qsa = a[3], qcb = b[2], qsb = b[3];
 #pragma GCC unroll 2
   for (int i = 0; i < 2; ++i) {
     LanePoint& p = k.points[i];
-    const V rax = L::load(p.rax + l0), ray = L::load(p.ray + l0);
-    const V rbx = L::load(p.rbx + l0), rby = L::load(p.rby + l0);
-    V ax = qca * rax - qsa * ray, ay = qsa * rax + qca * ray;
-    V bx = qcb * rbx - qsb * rby, by = qsb * rbx + qcb * rby;
-    V dx = ddx + (bx - ax), dy = ddy + (by - ay);
-    L::store(p.separation + l0, dx * nx + dy * ny + L::load(rest.points[i].base_separation + l0));
+    const V na = qsa * L::load(p.rna + l0) - qca * L::load(p.rta + l0);
+    const V nb = qsb * L::load(p.rnb + l0) - qcb * L::load(p.rtb + l0);
+    L::store(p.separation + l0, (dn + (nb - na)) + L::load(rest.points[i].base_separation + l0));
   }
 }
 
@@ -542,14 +565,9 @@ FULCRUM_LANE_INLINE void approach_lanes(const ContactBlock& k, ContactBlockRest&
 #pragma GCC unroll 2
   for (int i = 0; i < 2; ++i) {
     const LanePoint& p = k.points[i];
-    const V rax = L::load(p.rax + l0), ray = L::load(p.ray + l0);
-    const V rbx = L::load(p.rbx + l0), rby = L::load(p.rby + l0);
-    V dvx = (b0[0] - b0[2] * rby) - (a0[0] - a0[2] * ray);
-    V dvy = (b0[1] + b0[2] * rbx) - (a0[1] + a0[2] * rax);
-    const V v0 = dvx * nx + dvy * ny;
-    dvx = (v.vbx - v.wb * rby) - (v.vax - v.wa * ray);
-    dvy = (v.vby + v.wb * rbx) - (v.vay + v.wa * rax);
-    const V v1 = dvx * nx + dvy * ny;
+    const V rna = L::load(p.rna + l0), rnb = L::load(p.rnb + l0);
+    const V v0 = ((b0[0] - a0[0]) * nx + (b0[1] - a0[1]) * ny) + (b0[2] * rnb - a0[2] * rna);
+    const V v1 = v.speed_along(nx, ny, rna, rnb);
     const V gap = lane_max(L::load(p.separation + l0), zero);
     const V accel = (v1 - v0) * inv_h;
     const V impact = -L::sqrt(lane_max(v0 * v0 - two * accel * gap, zero));
@@ -564,9 +582,10 @@ FULCRUM_LANE_INLINE void approach_lanes(const ContactBlock& k, ContactBlockRest&
 //
 // A pass is bound by each lane's chain of rows: every row reads the velocities the row before
 // wrote. So each row is written with as few operations as possible between the velocities it
-// reads and those it writes; what does not depend on them (the cross products, the mass and its
-// softness scale times the bias, the impulse scale times the old impulse) is worked out beside
-// the chain: lambda = k vn + (k bias - s old) with k = -m_c * mass scale.
+// reads and those it writes; what does not depend on them (the mass and its softness scale
+// times the bias, the impulse scale times the old impulse) is worked out beside the chain:
+// lambda = k vn + (k bias - s old) with k = -m_c * mass scale. The anchors come crossed with n
+// and t (LanePoint), as the rows use them.
 template <class V, bool kRefresh>
 FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, ContactBlockRest& rest, int l0,
                                   SolverBody* bodies, const LaneRule& rule) {
@@ -590,8 +609,7 @@ FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, ContactBlockRest& rest, int l
 #pragma GCC unroll 2
   for (int i = 0; i < 2; ++i) {
     LanePoint& p = k.points[i];
-    const V rax = L::load(p.rax + l0), ray = L::load(p.ray + l0);
-    const V rbx = L::load(p.rbx + l0), rby = L::load(p.rby + l0);
+    const V rna = L::load(p.rna + l0), rnb = L::load(p.rnb + l0);
     const V sep = L::load(p.separation + l0);
     // Bias: speculative while apart; soft push-out (capped) while overlapping, if this pass
     // has feedback.
@@ -606,7 +624,6 @@ FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, ContactBlockRest& rest, int l
       mass_scale = one;
       impulse_scale = zero;
     }
-    const V rna = rax * ny - ray * nx, rnb = rbx * ny - rby * nx;
     V vn = v.speed_along(nx, ny, rna, rnb);
     V old = L::load(p.normal_impulse + l0);
     const V kn = -L::load(p.normal_mass + l0) * mass_scale;
@@ -626,9 +643,7 @@ FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, ContactBlockRest& rest, int l
   const V friction = L::load(k.friction + l0);
 #pragma GCC unroll 2
   for (LanePoint& p : k.points) {
-    const V rax = L::load(p.rax + l0), ray = L::load(p.ray + l0);
-    const V rbx = L::load(p.rbx + l0), rby = L::load(p.rby + l0);
-    const V rta = rax * ty - ray * tx, rtb = rbx * ty - rby * tx;
+    const V rta = L::load(p.rta + l0), rtb = L::load(p.rtb + l0);
     V vt = v.speed_along(tx, ty, rta, rtb);
     V old = L::load(p.tangent_impulse + l0);
     V lambda = -L::load(p.tangent_mass + l0) * vt;
@@ -812,10 +827,10 @@ void warm_blocks(ContactBlock* blocks, int first, int end, SolverBody* bodies) {
       }
 #pragma GCC unroll 2
       for (const LanePoint& p : blocks[k + 3].points) {
-        __builtin_prefetch(p.rax);
-        __builtin_prefetch(p.ray);
-        __builtin_prefetch(p.rbx);
-        __builtin_prefetch(p.rby);
+        __builtin_prefetch(p.rna);
+        __builtin_prefetch(p.rnb);
+        __builtin_prefetch(p.rta);
+        __builtin_prefetch(p.rtb);
         __builtin_prefetch(p.normal_impulse);
         __builtin_prefetch(p.tangent_impulse);
       }

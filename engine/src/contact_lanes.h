@@ -57,8 +57,11 @@ struct LaneAllocator : std::allocator<T> {
 // One contact point's rows, one lane per contact; with 8 lanes each array is one cache line.
 // What every pass reads comes first.
 struct alignas(64) LanePoint {
-  double rax[kBlockLanes], ray[kBlockLanes];  // anchor relative to A's centre, tick start
-  double rbx[kBlockLanes], rby[kBlockLanes];
+  // The anchors at the tick's start (ra from A's centre, rb from B's) crossed with the normal n
+  // and the tangent t = (ny, -nx): rna = ra x n, rnb = rb x n, rta = ra x t, rtb = rb x t. The
+  // rows need the anchors only so (contact_kernel.h).
+  double rna[kBlockLanes], rnb[kBlockLanes];
+  double rta[kBlockLanes], rtb[kBlockLanes];
   double separation[kBlockLanes];  // now: refreshed whenever the bodies move (update_separations)
   double normal_mass[kBlockLanes];
   double tangent_mass[kBlockLanes];

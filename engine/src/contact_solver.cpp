@@ -453,10 +453,11 @@ void prepare_lane(const WorldImpl& w, SolverScratch& s, const RowRule& r, size_t
         prepare_point(r, c.manifold.points[i], centre_a, centre_b, a, b, nx, ny);
     LanePoint& q = block.points[i];
     LanePointRest& qr = rest.points[i];
-    q.rax[l] = p.rax;
-    q.ray[l] = p.ray;
-    q.rbx[l] = p.rbx;
-    q.rby[l] = p.rby;
+    const double tx = ny, ty = -nx;
+    q.rna[l] = p.rax * ny - p.ray * nx;
+    q.rnb[l] = p.rbx * ny - p.rby * nx;
+    q.rta[l] = p.rax * ty - p.ray * tx;
+    q.rtb[l] = p.rbx * ty - p.rby * tx;
     qr.base_separation[l] = p.base_separation;
     q.normal_mass[l] = p.normal_mass;
     q.tangent_mass[l] = p.tangent_mass;
@@ -893,10 +894,12 @@ BounceRow bounce_row(const SolverScratch& s, const ColouredContacts* lanes, int 
   for (int i = 0; i < row.count; ++i) {
     const LanePoint& q = b.points[i];
     ContactPointRow& p = row.points[i];
-    p.rax = q.rax[l];
-    p.ray = q.ray[l];
-    p.rbx = q.rbx[l];
-    p.rby = q.rby[l];
+    // The anchors back from their cross products: r = (r . n) n + (r . t) t, with
+    // r . n = -(r x t) and r . t = r x n.
+    p.rax = q.rna[l] * row.ny - q.rta[l] * row.nx;
+    p.ray = -q.rta[l] * row.ny - q.rna[l] * row.nx;
+    p.rbx = q.rnb[l] * row.ny - q.rtb[l] * row.nx;
+    p.rby = -q.rtb[l] * row.ny - q.rnb[l] * row.nx;
     p.normal_mass = q.normal_mass[l];
     out.approach_speed[i] = rest.points[i].approach_speed[l];
   }
