@@ -411,7 +411,7 @@ struct LaneBodies {
   }
 
   // The relative speed along the unit axis d at the points ra, rb (rda = ra x d, rdb = rb x d):
-  // (vb - va) . d + wb rdb - wa rda, two products deep in the velocities.
+  // (vb - va) . d + wb rdb - wa rda, a difference, a product and two sums from the velocities.
   FULCRUM_LANE_INLINE V speed_along(V dx, V dy, V rda, V rdb) const {
     return ((vbx - vax) * dx + (vby - vay) * dy) + (wb * rdb - wa * rda);
   }
