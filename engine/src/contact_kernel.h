@@ -315,20 +315,6 @@ FULCRUM_LANE_INLINE const double* motion_row(const SolverBody& b) {
   return &b.vx + 4;
 }
 
-// P applied to body B at rb and -P to body A at ra: velocities (va, wa), (vb, wb) of a group of
-// lanes, whatever rows they come from (LaneBodies, LaneWarmRows).
-template <class V>
-FULCRUM_LANE_INLINE void apply_lane_impulse(V& vax, V& vay, V& wa, V& vbx, V& vby, V& wb, V ima,
-                                            V iia, V imb, V iib, V rax, V ray, V rbx, V rby, V px,
-                                            V py) {
-  vax -= ima * px;
-  vay -= ima * py;
-  wa -= iia * (rax * py - ray * px);
-  vbx += imb * px;
-  vby += imb * py;
-  wb += iib * (rbx * py - rby * px);
-}
-
 // The impulse (px, py) applied to B and its opposite to A, with the moments it has about each
 // body's centre given: ma = ra x P and mb = rb x P.
 template <class V>
@@ -340,6 +326,16 @@ FULCRUM_LANE_INLINE void apply_lane_moments(V& vax, V& vay, V& wa, V& vbx, V& vb
   vbx += imb * px;
   vby += imb * py;
   wb += iib * mb;
+}
+
+// P applied to body B at rb and -P to body A at ra: velocities (va, wa), (vb, wb) of a group of
+// lanes, whatever rows they come from (LaneBodies, LaneWarmRows).
+template <class V>
+FULCRUM_LANE_INLINE void apply_lane_impulse(V& vax, V& vay, V& wa, V& vbx, V& vby, V& wb, V ima,
+                                            V iia, V imb, V iib, V rax, V ray, V rbx, V rby, V px,
+                                            V py) {
+  apply_lane_moments(vax, vay, wa, vbx, vby, wb, ima, iia, imb, iib, px, py, rax * py - ray * px,
+                     rbx * py - rby * px);
 }
 
 // The velocities of a group of lanes' bodies, loaded from and stored to the solver bodies.

@@ -316,12 +316,24 @@ Vec2 centre_of(const WorldImpl& w, const SolverScratch& s, int slot, int body) {
   return Vec2(s.centres[slot].x, s.centres[slot].y);
 }
 
+// A point's anchors crossed with the normal n = (nx, ny) and the tangent t = (ny, -nx): the
+// rows' effective masses are made of them, and the lanes keep them (LanePoint).
+struct AnchorCrosses {
+  double rna, rnb;  // ra x n, rb x n
+  double rta, rtb;  // ra x t, rb x t
+};
+
+inline AnchorCrosses anchor_crosses(const ContactPointRow& p, double nx, double ny) {
+  const double tx = ny, ty = -nx;
+  return {p.rax * ny - p.ray * nx, p.rbx * ny - p.rby * nx, p.rax * ty - p.ray * tx,
+          p.rbx * ty - p.rby * tx};
+}
+
 // Point mp of a row between bodies a and b (their centres of mass at the tick's start), along
 // the unit normal (nx, ny): what the rigid step's rows and the lanes are both prepared from.
 inline __attribute__((always_inline)) ContactPointRow prepare_point(
     const RowRule& r, const ManifoldPoint& mp, Vec2 centre_a, Vec2 centre_b, const ScalarBody& a,
     const ScalarBody& b, double nx, double ny) {
-  const double tx = ny, ty = -nx;
   const double m = a.inv_mass + b.inv_mass;
   ContactPointRow p;
   p.rax = mp.point.x() - centre_a.x();
@@ -329,11 +341,10 @@ inline __attribute__((always_inline)) ContactPointRow prepare_point(
   p.rbx = mp.point.x() - centre_b.x();
   p.rby = mp.point.y() - centre_b.y();
   p.base_separation = mp.separation - ((p.rbx - p.rax) * nx + (p.rby - p.ray) * ny);
-  double rna = p.rax * ny - p.ray * nx, rnb = p.rbx * ny - p.rby * nx;
-  double kn = m + a.inv_inertia * rna * rna + b.inv_inertia * rnb * rnb;
+  const AnchorCrosses x = anchor_crosses(p, nx, ny);
+  double kn = m + a.inv_inertia * x.rna * x.rna + b.inv_inertia * x.rnb * x.rnb;
   p.normal_mass = kn > 0.0 ? 1.0 / kn : 0.0;
-  double rta = p.rax * ty - p.ray * tx, rtb = p.rbx * ty - p.rby * tx;
-  double kt = m + a.inv_inertia * rta * rta + b.inv_inertia * rtb * rtb;
+  double kt = m + a.inv_inertia * x.rta * x.rta + b.inv_inertia * x.rtb * x.rtb;
   p.tangent_mass = kt > 0.0 ? 1.0 / kt : 0.0;
   p.normal_impulse = r.warm_starting ? mp.normal_impulse : 0.0;
   p.tangent_impulse = r.warm_starting ? mp.tangent_impulse : 0.0;
@@ -453,11 +464,11 @@ void prepare_lane(const WorldImpl& w, SolverScratch& s, const RowRule& r, size_t
         prepare_point(r, c.manifold.points[i], centre_a, centre_b, a, b, nx, ny);
     LanePoint& q = block.points[i];
     LanePointRest& qr = rest.points[i];
-    const double tx = ny, ty = -nx;
-    q.rna[l] = p.rax * ny - p.ray * nx;
-    q.rnb[l] = p.rbx * ny - p.rby * nx;
-    q.rta[l] = p.rax * ty - p.ray * tx;
-    q.rtb[l] = p.rbx * ty - p.rby * tx;
+    const AnchorCrosses x = anchor_crosses(p, nx, ny);
+    q.rna[l] = x.rna;
+    q.rnb[l] = x.rnb;
+    q.rta[l] = x.rta;
+    q.rtb[l] = x.rtb;
     qr.base_separation[l] = p.base_separation;
     q.normal_mass[l] = p.normal_mass;
     q.tangent_mass[l] = p.tangent_mass;
