@@ -664,7 +664,7 @@ FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, ContactBlockRest& rest, int l
 // lane. `extras` (null unless joint rows read the angles turned) adds up each turn.
 template <class V>
 FULCRUM_LANE_INLINE void integrate_lanes(SolverBody* bodies, SolverBodyExtra* extras,
-                                         const IntegrateRule& rule) {
+                                         VelocityBefore* caps, const IntegrateRule& rule) {
   using L = Lane<V>;
   double* rows[L::kCount];
   double* motion[L::kCount];
@@ -680,14 +680,23 @@ FULCRUM_LANE_INLINE void integrate_lanes(SolverBody* bodies, SolverBodyExtra* ex
   // only when a lane is that fast.
   const V speed2 = v[0] * v[0] + v[1] * v[1];
   const auto fast = speed2 > L::splat(rule.max_speed * rule.max_speed);
-  if (any_lane(fast)) {
+  const V v0[3] = {v[0], v[1], v[2]};
+  const bool any_fast = any_lane(fast);
+  if (any_fast) {
     const V f = L::splat(rule.max_speed) / L::sqrt(speed2);
     v[0] = lane_select(fast, v[0] * f, v[0]);
     v[1] = lane_select(fast, v[1] * f, v[1]);
   }
   const V max_turn = L::splat(rule.max_turn);
-  v[2] = lane_select(v[2] * v[2] > max_turn * max_turn,
-                     lane_select(v[2] > L::splat(0.0), max_turn, -max_turn), v[2]);
+  const auto turning_fast = v[2] * v[2] > max_turn * max_turn;
+  v[2] = lane_select(turning_fast, lane_select(v[2] > L::splat(0.0), max_turn, -max_turn), v[2]);
+  if (caps != nullptr && (any_fast || any_lane(turning_fast))) {
+#pragma GCC unroll 16
+    for (int l = 0; l < L::kCount; ++l) {
+      note_cap(caps[l], L::get(v0[0], l), L::get(v0[1], l), L::get(v0[2], l), L::get(v[0], l),
+               L::get(v[1], l), L::get(v[2], l));
+    }
+  }
   const V h = L::splat(rule.h);
   m[0] += h * v[0];
   m[1] += h * v[1];
@@ -731,10 +740,12 @@ void integrate_bodies(SolverBody* bodies, SolverBodyExtra* extras, const Integra
   constexpr int kCount = Lane<V>::kCount;
   int k = first;
   for (; k + kCount <= end; k += kCount) {
-    integrate_lanes<V>(bodies + k, extras != nullptr ? extras + k : nullptr, rule);
+    integrate_lanes<V>(bodies + k, extras != nullptr ? extras + k : nullptr,
+                       rule.caps != nullptr ? rule.caps + k : nullptr, rule);
   }
   for (; k < end; ++k) {
-    integrate_lanes<double>(bodies + k, extras != nullptr ? extras + k : nullptr, rule);
+    integrate_lanes<double>(bodies + k, extras != nullptr ? extras + k : nullptr,
+                            rule.caps != nullptr ? rule.caps + k : nullptr, rule);
   }
 }
 

@@ -119,6 +119,9 @@ struct IntegrateRule {
   double h = 0.0;
   double max_speed = 0.0;
   double max_turn = 0.0;
+  // When set (per solver slot, like the bodies), what a cap changes of a velocity is noted there
+  // (note_cap).
+  VelocityBefore* caps = nullptr;
 };
 
 // The colours' block ranges (lay_out_colours, below).

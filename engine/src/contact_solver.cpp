@@ -227,16 +227,35 @@ inline void add_warm_row(VelocityBefore& w, SolverBody& b) {
 // factor 1 / (1 + h c), which stays stable for any damping. Speeds are clamped. Attractors
 // pull towards where the body is now, so they are the one term worked out every substep.
 // With `warm` (not null), each body's gathered warm start is added after its forces, as
-// add_gathered_warm would add it next.
+// add_gathered_warm would add it next. With `start` (not null), each body's velocity after its
+// forces is kept there (SolverScratch::substep_start), and with `add_change` the change of
+// velocity since it was kept a substep ago (what the constraints gave the body: solve_group) is
+// added after the forces as its warm start.
 void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s, double h,
-                          size_t first, size_t end, VelocityBefore* warm = nullptr) {
+                          size_t first, size_t end, VelocityBefore* warm = nullptr,
+                          VelocityBefore* start = nullptr, bool add_change = false) {
   const double max_speed = w.settings.max_linear_speed;
   const bool attract = !w.attractors.empty();
   for (size_t k = first; k < end; ++k) {
     const uint8_t kind = s.drive_kinds[k];
     SolverBody& sb = s.bodies[k + 1];
-    if (kind == kNoDrive) {
+    // The change is taken before the forces change the velocity, and added after them.
+    VelocityBefore change;
+    if (add_change) {
+      const VelocityBefore& then = start[k + 1];
+      change.vx = sb.vx - then.vx;
+      change.vy = sb.vy - then.vy;
+      change.w = sb.w - then.w;
+    }
+    auto finish = [&] {
       if (warm != nullptr) add_warm_row(warm[k + 1], sb);
+      if (start != nullptr) {
+        start[k + 1] = VelocityBefore{sb.vx, sb.vy, sb.w, 0.0};
+        if (add_change) add_warm_row(change, sb);
+      }
+    };
+    if (kind == kNoDrive) {
+      finish();
       continue;
     }
     // A body under gravity alone is not read for its drive (BodyDrive, kGravityOnly): its
@@ -273,7 +292,7 @@ void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScr
     sb.vx = vx;
     sb.vy = vy;
     sb.w = av;
-    if (warm != nullptr) add_warm_row(warm[k + 1], sb);
+    finish();
   }
 }
 
@@ -790,12 +809,14 @@ void solve_pseudo(SolverScratch& s, const BiasRule& rule) {
 // velocities. Without them the positions get the same bits: v + 0 differs from v only for
 // v = -0, whose step h v then moves nothing either way.
 template <bool kAngles, bool kPseudo>
-void integrate_positions_as(SolverScratch& s, double h, double max_speed, size_t first,
-                            size_t end) {
+void integrate_positions_as(SolverScratch& s, double h, double max_speed, size_t first, size_t end,
+                            VelocityBefore* caps) {
   const double max_turn = max_turn_rate(h);
   for (size_t k = first; k < end; ++k) {
     SolverBody& sb = s.bodies[k];
+    const double vx0 = sb.vx, vy0 = sb.vy, w0 = sb.w;
     cap_speeds(sb, max_speed, max_turn);
+    if (caps != nullptr) note_cap(caps[k], vx0, vy0, w0, sb.vx, sb.vy, sb.w);
     double turn;
     if constexpr (kPseudo) {
       PseudoVelocity& pv = s.pseudo[k];
@@ -830,13 +851,15 @@ void integrate_positions_as(SolverScratch& s, double h, double max_speed, size_t
   }
 }
 
-void integrate_positions(SolverScratch& s, double h, double max_speed, size_t first, size_t end) {
+// With `caps` (per slot), what the speed caps change is noted there (note_cap).
+void integrate_positions(SolverScratch& s, double h, double max_speed, size_t first, size_t end,
+                         VelocityBefore* caps = nullptr) {
   const bool pseudo = !s.pseudo.empty();
   // The 2- and 4-lane paths integrate in lanes, with the same bits (contact_kernel.h); the
   // rigid solver's pseudo velocities and the scalar path take the loop above.
   if (!pseudo) {
     if (const lanes::IntegrateFn integrate = integrate_fn()) {
-      const IntegrateRule rule{h, max_speed, max_turn_rate(h)};
+      const IntegrateRule rule{h, max_speed, max_turn_rate(h), caps};
       integrate(s.bodies.data(), s.track_angles ? s.body_extras.data() : nullptr, rule,
                 static_cast<int>(first), static_cast<int>(end));
       return;
@@ -844,14 +867,14 @@ void integrate_positions(SolverScratch& s, double h, double max_speed, size_t fi
   }
   if (s.track_angles) {
     if (pseudo) {
-      integrate_positions_as<true, true>(s, h, max_speed, first, end);
+      integrate_positions_as<true, true>(s, h, max_speed, first, end, caps);
     } else {
-      integrate_positions_as<true, false>(s, h, max_speed, first, end);
+      integrate_positions_as<true, false>(s, h, max_speed, first, end, caps);
     }
   } else if (pseudo) {
-    integrate_positions_as<false, true>(s, h, max_speed, first, end);
+    integrate_positions_as<false, true>(s, h, max_speed, first, end, caps);
   } else {
-    integrate_positions_as<false, false>(s, h, max_speed, first, end);
+    integrate_positions_as<false, false>(s, h, max_speed, first, end, caps);
   }
 }
 
@@ -1104,7 +1127,23 @@ void WorldImpl::solve_group(const std::vector<int>& awake, const std::vector<int
   // Only when that pass is surely the last (no early exit). The rows are zero between uses.
   const bool gather_warm = !rule.rigid && set.relax_iterations > 0 &&
                            !(set.early_exit_tolerance > 0.0) && set.substeps > 1;
-  if (gather_warm && s.warm_next.size() < s.bodies.size()) s.warm_next.resize(s.bodies.size());
+  // With contacts alone (no joint, no restitution), the impulses need not be gathered at all: a
+  // substep's contacts give each body exactly the change of velocity J^T lambda their final
+  // impulses make (the warm start applied the impulses they started from, every pass the change
+  // since, all at anchors fixed for the tick), so the next warm start is each body's velocity at
+  // the substep's end less its velocity after the substep's forces, less what the speed caps took
+  // (integrate_velocities, integrate_positions). Not with joints: their anchors turn with the
+  // bodies within the tick, so their impulses act at other anchors before and after a substep's
+  // motion. Nor with restitution, which reads the velocities between the forces and the warm
+  // start.
+  const bool change_warm = gather_warm && s.joints.empty() && s.restitution_rows.empty();
+  if (gather_warm && !change_warm && s.warm_next.size() < s.bodies.size()) {
+    s.warm_next.resize(s.bodies.size());
+  }
+  if (change_warm && s.substep_start.size() < s.bodies.size()) {
+    s.substep_start.resize(s.bodies.size());
+  }
+  VelocityBefore* const starts = change_warm ? s.substep_start.data() : nullptr;
   bool gathered_warm = false;
   for (int sub = 0; sub < set.substeps; ++sub) {
     if (!s.restitution_rows.empty()) {
@@ -1116,9 +1155,11 @@ void WorldImpl::solve_group(const std::vector<int>& awake, const std::vector<int
     // The gathered warm start goes in with the forces, unless restitution reads the velocities
     // between the two (track_approach).
     const bool warm_with_forces = gathered_warm && s.restitution_rows.empty();
-    VelocityBefore* const warm_rows = warm_with_forces ? s.warm_next.data() : nullptr;
+    VelocityBefore* const warm_rows =
+        warm_with_forces && !change_warm ? s.warm_next.data() : nullptr;
     for_chunks(workers, awake.size(), 256, [&](size_t lo, size_t hi) {
-      integrate_velocities(*this, awake, s, h, lo, hi, warm_rows);
+      integrate_velocities(*this, awake, s, h, lo, hi, warm_rows, starts,
+                           change_warm && gathered_warm);
     });
     if (coloured && !s.restitution_rows.empty()) {
       track_approach_coloured(coloured_contacts, s.bodies.data(), s.velocity_before.data(), 1.0 / h,
@@ -1154,7 +1195,7 @@ void WorldImpl::solve_group(const std::vector<int>& awake, const std::vector<int
     }
     // Solver slots 1..n hold the awake bodies (0 is the shared static body).
     for_chunks(workers, awake.size(), 256, [&](size_t lo, size_t hi) {
-      integrate_positions(s, h, set.max_linear_speed, lo + 1, hi + 1);
+      integrate_positions(s, h, set.max_linear_speed, lo + 1, hi + 1, starts);
     });
     // The bodies moved: the first relax pass refreshes the lanes' separations as it goes.
     if (coloured && set.relax_iterations == 0) {
@@ -1163,7 +1204,8 @@ void WorldImpl::solve_group(const std::vector<int>& awake, const std::vector<int
     gathered_warm = gather_warm && sub + 1 < set.substeps;
     for (int it = 0; it < set.relax_iterations; ++it) {
       VelocityBefore* const warm_next =
-          gathered_warm && it + 1 == set.relax_iterations ? s.warm_next.data() : nullptr;
+          gathered_warm && !change_warm && it + 1 == set.relax_iterations ? s.warm_next.data()
+                                                                          : nullptr;
       solve_joints(false, workers, warm_next);
       lane_relax.refresh_separation = it == 0;
       lane_relax.warm_next = warm_next;

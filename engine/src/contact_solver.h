@@ -43,6 +43,17 @@ struct alignas(32) VelocityBefore {
   double unused = 0.0;
 };
 
+// A speed cap's change of a solver body's velocity (v0 before it, v after it) taken off the
+// body's row of `substep_start` (SolverScratch): the warm start worked out from each body's change
+// of velocity must leave out what the caps took (solve_group). Only the components a cap
+// changed, so that a row is never turned from -0 to +0.
+inline void note_cap(VelocityBefore& start, double vx0, double vy0, double w0, double vx, double vy,
+                     double w) {
+  if (vx != vx0) start.vx += vx - vx0;
+  if (vy != vy0) start.vy += vy - vy0;
+  if (w != w0) start.w += w - w0;
+}
+
 // Rigid contacts with split impulses: the velocity that moves a body out of overlap this
 // substep and is then forgotten.
 struct PseudoVelocity {
@@ -168,8 +179,11 @@ struct SolverScratch {
   // With restitution rows: each slot's velocity before this substep's forces.
   std::vector<VelocityBefore> velocity_before;
   std::vector<VelocityBefore> warm_next;  // the lanes' next warm start, per slot (solve_group)
-  std::vector<int> joints;                // awake joints, by id (after solve: every group's)
-  std::vector<JointRow> joint_rows;       // constraints
+  // Each slot's velocity after the substep's forces, less what the speed caps took since, when
+  // the next substep's warm start is each body's change of velocity (solve_group).
+  std::vector<VelocityBefore> substep_start;
+  std::vector<int> joints;           // awake joints, by id (after solve: every group's)
+  std::vector<JointRow> joint_rows;  // constraints
   // Each joint row's slots and kind, written beside it: colour_points reads only these, 12
   // bytes a row instead of a cache line of each large row.
   struct RowSlots {

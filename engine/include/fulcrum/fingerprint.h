@@ -10,6 +10,6 @@
 namespace fulcrum {
 
 // "fulcrum-results-N": N counts the changes to the engine's results.
-inline constexpr const char kDeterminismFingerprint[] = "fulcrum-results-17";
+inline constexpr const char kDeterminismFingerprint[] = "fulcrum-results-18";
 
 }  // namespace fulcrum
