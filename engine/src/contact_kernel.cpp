@@ -181,12 +181,12 @@ static_assert(kMaxColours <= 32, "colours are bits of a uint32_t");
 
 namespace {
 
-void clear_point(LanePoint* q, LanePointRest* r, int l) {
+void clear_point(LanePoint* q, ContactBlockRest* r, int i, int l) {
   q->rna[l] = q->rnb[l] = q->rta[l] = q->rtb[l] = 0.0;
-  q->separation[l] = r->base_separation[l] = 0.0;
+  q->separation[l] = r->base_separation[i][l] = 0.0;
   q->normal_mass[l] = q->tangent_mass[l] = 0.0;
-  q->normal_impulse[l] = q->tangent_impulse[l] = r->max_normal_impulse[l] = 0.0;
-  r->approach_speed[l] = 0.0;
+  q->normal_impulse[l] = q->tangent_impulse[l] = r->max_normal_impulse[i][l] = 0.0;
+  r->approach_speed[i][l] = 0.0;
 }
 
 void clear_lane(ContactBlock* b, ContactBlockRest* r, int l) {
@@ -194,8 +194,8 @@ void clear_lane(ContactBlock* b, ContactBlockRest* r, int l) {
   b->write_a[l] = b->write_b[l] = 0;
   b->inv_inertia_a[l] = b->inv_inertia_b[l] = 0.0;
   b->nx[l] = b->ny[l] = b->friction[l] = 0.0;
-  clear_point(&b->points[0], &r->points[0], l);
-  clear_point(&b->points[1], &r->points[1], l);
+  clear_point(&b->points[0], r, 0, l);
+  clear_point(&b->points[1], r, 1, l);
 }
 
 }  // namespace
@@ -292,7 +292,7 @@ void colour_contacts(const std::vector<RowBodies>& rows, const std::vector<uint8
 }
 
 void clear_lane_point(ContactBlock* block, ContactBlockRest* rest, int point, int lane) {
-  clear_point(&block->points[point], &rest->points[point], lane);
+  clear_point(&block->points[point], rest, point, lane);
 }
 
 // --- Passes ----------------------------------------------------------------------------------

@@ -533,7 +533,7 @@ FULCRUM_LANE_INLINE void separation_lanes(ContactBlock& k, const ContactBlockRes
     LanePoint& p = k.points[i];
     const V na = qsa * L::load(p.rna + l0) - qca * L::load(p.rta + l0);
     const V nb = qsb * L::load(p.rnb + l0) - qcb * L::load(p.rtb + l0);
-    L::store(p.separation + l0, (dn + (nb - na)) + L::load(rest.points[i].base_separation + l0));
+    L::store(p.separation + l0, (dn + (nb - na)) + L::load(rest.base_separation[i] + l0));
   }
 }
 
@@ -568,7 +568,7 @@ FULCRUM_LANE_INLINE void approach_lanes(const ContactBlock& k, ContactBlockRest&
     const V accel = (v1 - v0) * inv_h;
     const V impact = -L::sqrt(lane_max(v0 * v0 - two * accel * gap, zero));
     const V speed = lane_select((v0 < zero) | (accel < zero), lane_min(v1, impact), v1);
-    double* approach = rest.points[i].approach_speed + l0;
+    double* approach = rest.approach_speed[i] + l0;
     L::store(approach, lane_min(L::load(approach), speed));
   }
 }
@@ -628,7 +628,7 @@ FULCRUM_LANE_INLINE V solve_lanes(ContactBlock& k, ContactBlockRest& rest, int l
     lambda = acc - old;
     L::store(p.normal_impulse + l0, acc);
     if (rule.track_max) {
-      double* max_normal = rest.points[i].max_normal_impulse + l0;
+      double* max_normal = rest.max_normal_impulse[i] + l0;
       L::store(max_normal, lane_max(L::load(max_normal), acc));
     }
     v.apply_along(lambda, ima, iia, imb, iib, nx, ny, rna, rnb);
@@ -765,12 +765,16 @@ double solve_blocks_as(ContactBlock* blocks, int first, int end, SolverBody* bod
       for (size_t line = 0; line < sizeof(ContactBlock); line += 64) {
         __builtin_prefetch(far + line);
       }
-      if (kRefresh || rule.track_max) {
+      if (rule.track_max) {
         const char* rest = reinterpret_cast<const char*>(&rule.rests[k + 3]);
 #pragma GCC unroll 32
         for (size_t line = 0; line < sizeof(ContactBlockRest); line += 64) {
           __builtin_prefetch(rest + line);
         }
+      } else if (kRefresh) {
+        const char* rest = reinterpret_cast<const char*>(rule.rests[k + 3].base_separation);
+        __builtin_prefetch(rest);
+        __builtin_prefetch(rest + 64);
       }
     }
     if (k + 1 < end) {

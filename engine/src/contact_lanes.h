@@ -69,16 +69,6 @@ struct alignas(64) LanePoint {
   double tangent_impulse[kBlockLanes];
 };
 
-// What few passes read of a point's lanes, kept beside the blocks (ColouredContacts::rests)
-// so that the warm-start and solve passes stream two lines fewer per point.
-struct alignas(64) LanePointRest {
-  double base_separation[kBlockLanes];     // read where the separations are refreshed
-  double max_normal_impulse[kBlockLanes];  // tracked only when restitution needs it
-  // Restitution: the point's normal speed at impact, the least over the substeps
-  // (track_approach_coloured); kept only for contacts with restitution.
-  double approach_speed[kBlockLanes];
-};
-
 // The inverse masses are not here: the lanes read them with the bodies' velocities. Nor is the
 // softness: it is one of two per tick (LaneRule), chosen by whether a body has infinite mass.
 struct alignas(64) ContactBlock {
@@ -91,8 +81,16 @@ struct alignas(64) ContactBlock {
   LanePoint points[2];  // a one-point manifold's second point has zero masses
 };
 
-struct ContactBlockRest {
-  LanePointRest points[2];
+// What few passes read of a block's points (index [point][lane]), kept beside the blocks
+// (ColouredContacts::rests) so that the warm-start and solve passes stream six lines fewer per
+// block. Field by field: a refreshing pass without restitution reads the first two lines alone,
+// one aligned pair, which is what the processor fetches together.
+struct alignas(128) ContactBlockRest {
+  double base_separation[2][kBlockLanes];     // read where the separations are refreshed
+  double max_normal_impulse[2][kBlockLanes];  // tracked only when restitution needs it
+  // Restitution: the point's normal speed at impact, the least over the substeps
+  // (track_approach_coloured); kept only for contacts with restitution.
+  double approach_speed[2][kBlockLanes];
 };
 
 // What one pass needs besides the blocks.

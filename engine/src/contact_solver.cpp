@@ -482,19 +482,18 @@ void prepare_lane(const WorldImpl& w, SolverScratch& s, const RowRule& r, size_t
     const ContactPointRow p =
         prepare_point(r, c.manifold.points[i], centre_a, centre_b, a, b, nx, ny);
     LanePoint& q = block.points[i];
-    LanePointRest& qr = rest.points[i];
     const AnchorCrosses x = anchor_crosses(p, nx, ny);
     q.rna[l] = x.rna;
     q.rnb[l] = x.rnb;
     q.rta[l] = x.rta;
     q.rtb[l] = x.rtb;
-    qr.base_separation[l] = p.base_separation;
+    rest.base_separation[i][l] = p.base_separation;
     q.normal_mass[l] = p.normal_mass;
     q.tangent_mass[l] = p.tangent_mass;
     q.normal_impulse[l] = p.normal_impulse;
     q.tangent_impulse[l] = p.tangent_impulse;
-    qr.max_normal_impulse[l] = p.max_normal_impulse;
-    qr.approach_speed[l] = c.restitution != 0.0 ? normal_speed(a, b, p, nx, ny) : 0.0;
+    rest.max_normal_impulse[i][l] = p.max_normal_impulse;
+    rest.approach_speed[i][l] = c.restitution != 0.0 ? normal_speed(a, b, p, nx, ny) : 0.0;
   }
 }
 
@@ -893,9 +892,9 @@ PointImpulses impulses_of(SolverScratch& s, ColouredContacts* lanes, size_t k, i
   }
   const int lane = lanes->lane_of_row[k];
   LanePoint& q = lanes->blocks[lane / kBlockLanes].points[i];
-  LanePointRest& r = lanes->rests[lane / kBlockLanes].points[i];
+  ContactBlockRest& r = lanes->rests[lane / kBlockLanes];
   const int l = lane % kBlockLanes;
-  return {&q.normal_impulse[l], &q.tangent_impulse[l], &r.max_normal_impulse[l]};
+  return {&q.normal_impulse[l], &q.tangent_impulse[l], &r.max_normal_impulse[i][l]};
 }
 
 // A restitution row as apply_restitution reads it: the rigid step's row, or a soft contact's
@@ -935,7 +934,7 @@ BounceRow bounce_row(const SolverScratch& s, const ColouredContacts* lanes, int 
     p.rbx = q.rnb[l] * row.ny - q.rtb[l] * row.nx;
     p.rby = -q.rtb[l] * row.ny - q.rnb[l] * row.nx;
     p.normal_mass = q.normal_mass[l];
-    out.approach_speed[i] = rest.points[i].approach_speed[l];
+    out.approach_speed[i] = rest.approach_speed[i][l];
   }
   out.restitution = s.row_restitution[k];
   return out;
