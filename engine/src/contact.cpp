@@ -254,7 +254,8 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
     // Most bodies awake: one pass over the contact pool, in id order, is cheaper than walking
     // every awake body's list and sorting, and finds the same contacts (those with an awake
     // body, the first round's bodies being all the awake ones). The pool is read in chunks of
-    // ids, on several threads, and their lists joined in chunk order.
+    // ids, on several threads, and their lists joined in chunk order. It only reads the pool
+    // (each contact is found once): stamps would dirty a line of every contact.
     constexpr size_t kPoolChunk = 2048;
     const int chunks = static_cast<int>((contacts.size() + kPoolChunk - 1) / kPoolChunk);
     std::vector<std::vector<int>>& found = scratch_chunk_contacts;
@@ -265,20 +266,23 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
       const size_t hi = std::min(contacts.size(), (i + 1) * kPoolChunk);
       for (size_t ci = i * kPoolChunk; ci < hi; ++ci) {
         Contact& c = contacts[ci];
-        if (!c.alive || c.stamp == step_stamp) continue;
-        if (awake_flag[c.body_a] || awake_flag[c.body_b]) {
-          c.stamp = step_stamp;
-          found[i].push_back(static_cast<int>(ci));
-        }
+        if (!c.alive) continue;
+        if (awake_flag[c.body_a] || awake_flag[c.body_b]) found[i].push_back(static_cast<int>(ci));
       }
     };
     run_chunks(chunks >= 4 ? pool : nullptr, chunks, gather, true);
     for (int i = 0; i < chunks; ++i) list.insert(list.end(), found[i].begin(), found[i].end());
   } else {
+    // A contact with a body awake before this round (its place in awake_bodies before `first`)
+    // was found by an earlier round; the stamps keep this round from listing one twice.
+    auto earlier = [&](int body) {
+      const int place = bodies[body].awake_slot;
+      return place >= 0 && static_cast<size_t>(place) < first;
+    };
     for (size_t k = first; k < end; ++k) {
       for (int e = bodies[awake_bodies[k]].contact_list; e != kNullIndex;) {
         Contact& c = contacts[edge_contact(e)];
-        if (c.stamp != step_stamp) {
+        if (c.stamp != step_stamp && !earlier(c.body_a) && !earlier(c.body_b)) {
           c.stamp = step_stamp;
           list.push_back(edge_contact(e));
         }
