@@ -231,9 +231,12 @@ inline void add_warm_row(VelocityBefore& w, SolverBody& b) {
 // forces is kept there (SolverScratch::substep_start), and with `add_change` the change of
 // velocity since it was kept a substep ago (what the constraints gave the body: solve_group) is
 // added after the forces as its warm start.
-void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s, double h,
-                          size_t first, size_t end, VelocityBefore* warm = nullptr,
-                          VelocityBefore* start = nullptr, bool add_change = false) {
+// kStarts: whether `start` is given (a template argument, so that the loop of a step without it
+// is the plain one).
+template <bool kStarts>
+void integrate_velocities_as(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s,
+                             double h, size_t first, size_t end, VelocityBefore* warm,
+                             VelocityBefore* start, bool add_change) {
   const double max_speed = w.settings.max_linear_speed;
   const bool attract = !w.attractors.empty();
   for (size_t k = first; k < end; ++k) {
@@ -241,7 +244,7 @@ void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScr
     SolverBody& sb = s.bodies[k + 1];
     // The change is taken before the forces change the velocity, and added after them.
     VelocityBefore change;
-    if (add_change) {
+    if (kStarts && add_change) {
       const VelocityBefore& then = start[k + 1];
       change.vx = sb.vx - then.vx;
       change.vy = sb.vy - then.vy;
@@ -249,7 +252,7 @@ void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScr
     }
     auto finish = [&] {
       if (warm != nullptr) add_warm_row(warm[k + 1], sb);
-      if (start != nullptr) {
+      if constexpr (kStarts) {
         start[k + 1] = VelocityBefore{sb.vx, sb.vy, sb.w, 0.0};
         if (add_change) add_warm_row(change, sb);
       }
@@ -293,6 +296,16 @@ void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScr
     sb.vy = vy;
     sb.w = av;
     finish();
+  }
+}
+
+void integrate_velocities(WorldImpl& w, const std::vector<int>& awake, SolverScratch& s, double h,
+                          size_t first, size_t end, VelocityBefore* warm = nullptr,
+                          VelocityBefore* start = nullptr, bool add_change = false) {
+  if (start != nullptr) {
+    integrate_velocities_as<true>(w, awake, s, h, first, end, warm, start, add_change);
+  } else {
+    integrate_velocities_as<false>(w, awake, s, h, first, end, warm, nullptr, false);
   }
 }
 
