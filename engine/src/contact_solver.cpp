@@ -1170,8 +1170,7 @@ void WorldImpl::solve_group(const std::vector<int>& awake, const std::vector<int
     VelocityBefore* const warm_rows =
         warm_with_forces && !change_warm ? s.warm_next.data() : nullptr;
     for_chunks(workers, awake.size(), 256, [&](size_t lo, size_t hi) {
-      integrate_velocities(*this, awake, s, h, lo, hi, warm_rows, starts,
-                           change_warm && gathered_warm);
+      integrate_velocities(*this, awake, s, h, lo, hi, warm_rows, starts, gathered_warm);
     });
     if (coloured && !s.restitution_rows.empty()) {
       track_approach_coloured(coloured_contacts, s.bodies.data(), s.velocity_before.data(), 1.0 / h,
