@@ -1197,7 +1197,8 @@ void WorldImpl::solve_group(const std::vector<int>& awake, const std::vector<int
       }
     }
     for (int it = 0; it < set.velocity_iterations; ++it) {
-      solve_joints(true, workers);
+      solve_joints(true, workers, nullptr,
+                   PointMassUse::velocity(sub, it, set.velocity_iterations, set.relax_iterations));
       lane_solve.refresh_separation = sub == 0 && it == 0;
       if (contact_pass(rule, lane_solve) < set.early_exit_tolerance) break;
     }
@@ -1217,7 +1218,9 @@ void WorldImpl::solve_group(const std::vector<int>& awake, const std::vector<int
       VelocityBefore* const warm_next =
           gathered_warm && !change_warm && it + 1 == set.relax_iterations ? s.warm_next.data()
                                                                           : nullptr;
-      solve_joints(false, workers, warm_next);
+      solve_joints(false, workers, warm_next,
+                   PointMassUse::relax(sub, it, set.substeps, set.velocity_iterations,
+                                       set.relax_iterations));
       lane_relax.refresh_separation = it == 0;
       lane_relax.warm_next = warm_next;
       if (contact_pass(relax, lane_relax) < set.early_exit_tolerance) break;

@@ -457,6 +457,9 @@ void DynamicTree::refit_subtree(int index, double& internal, double& leaves) {
     leaves += node.aabb.perimeter();
     return;
   }
+  // The walk is a chase through nodes scattered over the pool: the second child is fetched
+  // now, while the first child's subtree is walked.
+  __builtin_prefetch(&nodes_[node.child2]);
   refit_subtree(node.child1, internal, leaves);
   refit_subtree(node.child2, internal, leaves);
   refit(index);

@@ -403,7 +403,8 @@ void WorldImpl::warm_start_joints(WorkerPool* workers, bool lanes) {
   });
 }
 
-void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers, VelocityBefore* warm_next) {
+void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers, VelocityBefore* warm_next,
+                             PointMassUse mass) {
   SolverScratch& s = solver_scratch;
   JointStep st;
   st.h = settings.dt / settings.substeps;
@@ -424,6 +425,8 @@ void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers, VelocityBefore*
   rule.warm_next = warm_next;
   rule.h = st.h;
   rule.inv_h = st.inv_h;
+  rule.keep_inv_det = mass.keep;
+  rule.read_inv_det = mass.read;
   solve_points(coloured_points, s.bodies.data(), s.body_extras.data(), rule, workers);
   each_other_row(coloured_points, workers, [&](int k) {
     JointRow& r = s.joint_rows[k];

@@ -11,10 +11,11 @@
 namespace fulcrum {
 namespace {
 
-// joint_frame's figures: the anchors turned with the bodies, and anchor B minus anchor A.
+// joint_frame's figures: the anchors turned with the bodies, and how far each body's centre has
+// moved since the tick began.
 template <class V>
 struct PointFrame {
-  V rax, ray, rbx, rby, dx, dy;
+  V rax, ray, rbx, rby, dpax, dpay, dpbx, dpby;
 };
 
 template <class V>
@@ -30,9 +31,18 @@ FULCRUM_LANE_INLINE PointFrame<V> point_frame(const PointBlock& k, int l0,
   f.ray = a[3] * rax + a[2] * ray;
   f.rbx = b[2] * rbx - b[3] * rby;
   f.rby = b[3] * rbx + b[2] * rby;
-  f.dx = (L::load(k.dcx + l0) + (b[0] - a[0])) + (f.rbx - f.rax);
-  f.dy = (L::load(k.dcy + l0) + (b[1] - a[1])) + (f.rby - f.ray);
+  f.dpax = a[0], f.dpay = a[1], f.dpbx = b[0], f.dpby = b[1];
   return f;
+}
+
+// Anchor B minus anchor A: the point's error, which only the biased passes read (so the relax
+// passes never fetch the centres' lines, fetch_ahead).
+template <class V>
+FULCRUM_LANE_INLINE void point_error(const PointBlock& k, int l0, const PointFrame<V>& f, V& dx,
+                                     V& dy) {
+  using L = Lane<V>;
+  dx = (L::load(k.dcx + l0) + (f.dpbx - f.dpax)) + (f.rbx - f.rax);
+  dy = (L::load(k.dcy + l0) + (f.dpby - f.dpay)) + (f.rby - f.ray);
 }
 
 // Warm start: the pin's accumulated impulse at its anchors as they are now (a pin has no angle
@@ -64,8 +74,10 @@ FULCRUM_LANE_INLINE void point_row_lanes(PointBlock& k, int l0, const PointFrame
     const V rate = L::splat(rule.rate);
     ms = L::splat(rule.mass_scale);
     is = L::splat(rule.impulse_scale);
-    bias_x = rate * f.dx;
-    bias_y = rate * f.dy;
+    V dx, dy;
+    point_error<V>(k, l0, f, dx, dy);
+    bias_x = rate * dx;
+    bias_y = rate * dy;
   }
   const V m = v.ima_row + v.imb_row;
   const V k11 = m + iia * f.ray * f.ray + iib * f.rby * f.rby;
@@ -73,7 +85,13 @@ FULCRUM_LANE_INLINE void point_row_lanes(PointBlock& k, int l0, const PointFrame
   const V k22 = m + iia * f.rax * f.rax + iib * f.rbx * f.rbx;
   const V det = k11 * k22 - k12 * k12;
   const auto singular = det == zero;
-  const V inv_det = L::splat(1.0) / det;
+  V inv_det;
+  if (rule.read_inv_det) {
+    inv_det = L::load(k.inv_det + l0);
+  } else {
+    inv_det = L::splat(1.0) / det;
+    if (rule.keep_inv_det) L::store(k.inv_det + l0, inv_det);
+  }
   const V rx = cdx + bias_x, ry = cdy + bias_y;
   const V sx = inv_det * (k22 * rx - k12 * ry);
   const V sy = inv_det * (k11 * ry - k12 * rx);
@@ -242,14 +260,19 @@ FULCRUM_LANE_INLINE void solve_revolute_lanes(RevoluteBlock& k, int l0, SolverBo
 }
 
 // Fetched while block k of [first, end) is solved: the block two on, and the next block's
-// bodies.
+// bodies. A pass without bias leaves out the centres' lines (point_error).
 template <class Block>
-FULCRUM_LANE_INLINE void fetch_ahead(const Block* blocks, int k, int end,
-                                     const SolverBody* bodies) {
+FULCRUM_LANE_INLINE void fetch_ahead(const Block* blocks, int k, int end, const SolverBody* bodies,
+                                     bool biased) {
   if (k + 2 < end) {
     const char* far = reinterpret_cast<const char*>(&blocks[k + 2]);
+    constexpr size_t kCentres = offsetof(PointBlock, dcx);
+    constexpr size_t kAfter = offsetof(PointBlock, dcy) + sizeof(PointBlock::dcy);
+    static_assert(kCentres % 64 == 0 && kAfter % 64 == 0);
 #pragma GCC unroll 32
-    for (size_t line = 0; line < sizeof(Block); line += 64) __builtin_prefetch(far + line);
+    for (size_t line = 0; line < sizeof(Block); line += 64) {
+      if (biased || line < kCentres || line >= kAfter) __builtin_prefetch(far + line);
+    }
   }
   if (k + 1 < end) {
     const Block& next = blocks[k + 1];
@@ -265,7 +288,7 @@ template <class V>
 void solve_point_blocks(PointBlock* blocks, int first, int end, SolverBody* bodies,
                         const PointRule& rule) {
   for (int k = first; k < end; ++k) {
-    fetch_ahead(blocks, k, end, bodies);
+    fetch_ahead(blocks, k, end, bodies, rule.use_bias);
     for (int l0 = 0; l0 < kBlockLanes; l0 += Lane<V>::kCount) {
       solve_point_lanes<V>(blocks[k], l0, bodies, rule);
     }
@@ -275,7 +298,7 @@ void solve_point_blocks(PointBlock* blocks, int first, int end, SolverBody* bodi
 template <class V>
 void warm_point_blocks(PointBlock* blocks, int first, int end, SolverBody* bodies) {
   for (int k = first; k < end; ++k) {
-    fetch_ahead(blocks, k, end, bodies);
+    fetch_ahead(blocks, k, end, bodies, false);
     for (int l0 = 0; l0 < kBlockLanes; l0 += Lane<V>::kCount) {
       warm_point_lanes<V>(blocks[k], l0, bodies);
     }
@@ -286,7 +309,7 @@ template <class V>
 void solve_revolute_blocks(RevoluteBlock* blocks, int first, int end, SolverBody* bodies,
                            const SolverBodyExtra* extras, const PointRule& rule) {
   for (int k = first; k < end; ++k) {
-    fetch_ahead(blocks, k, end, bodies);
+    fetch_ahead(blocks, k, end, bodies, rule.use_bias);
     for (int l0 = 0; l0 < kBlockLanes; l0 += Lane<V>::kCount) {
       solve_revolute_lanes<V>(blocks[k], l0, bodies, extras, rule);
     }
@@ -296,7 +319,7 @@ void solve_revolute_blocks(RevoluteBlock* blocks, int first, int end, SolverBody
 template <class V>
 void warm_revolute_blocks(RevoluteBlock* blocks, int first, int end, SolverBody* bodies) {
   for (int k = first; k < end; ++k) {
-    fetch_ahead(blocks, k, end, bodies);
+    fetch_ahead(blocks, k, end, bodies, false);
     for (int l0 = 0; l0 < kBlockLanes; l0 += Lane<V>::kCount) {
       warm_revolute_lanes<V>(blocks[k], l0, bodies);
     }

@@ -22,15 +22,22 @@ namespace fulcrum {
 struct Joint;
 struct JointRow;
 
-// Eight plain points, structure of arrays: what joint_frame and the point rows read.
+// Eight plain points, structure of arrays: what joint_frame and the point rows read. Each field
+// fills one cache line, and the lines only the biased passes read (dcx, dcy) come after the
+// others, so that a relax pass fetches none of them (fetch_ahead).
 struct alignas(64) PointBlock {
   int32_t ia[kBlockLanes], ib[kBlockLanes];  // solver body slots (0: the static body)
-  uint8_t write_a[kBlockLanes], write_b[kBlockLanes];
   double inv_inertia_a[kBlockLanes], inv_inertia_b[kBlockLanes];
   double rax[kBlockLanes], ray[kBlockLanes];  // anchors relative to the centres, tick start
   double rbx[kBlockLanes], rby[kBlockLanes];
-  double dcx[kBlockLanes], dcy[kBlockLanes];  // centre of B minus centre of A, tick start
-  double ix[kBlockLanes], iy[kBlockLanes];    // accumulated point impulse
+  double ix[kBlockLanes], iy[kBlockLanes];  // accumulated point impulse
+  // 1 / det K of the point rows, as the first pass since the bodies last moved worked it out
+  // (PointRule::keep_inv_det), for the passes after it (read_inv_det): K depends only on where
+  // the bodies are, and the division is the pass's costliest instruction.
+  double inv_det[kBlockLanes];
+  uint8_t write_a[kBlockLanes], write_b[kBlockLanes];
+  alignas(64) double dcx[kBlockLanes];  // centre of B minus centre of A, tick start
+  double dcy[kBlockLanes];
 };
 
 // Eight revolute joints with angle rows: the point's fields, then what the spring, motor and
@@ -70,6 +77,35 @@ struct PointRule {
   // accumulated impulse, as a warm start applies it, to these rows (one per solver slot).
   VelocityBefore* warm_next = nullptr;
   double h = 0.0, inv_h = 0.0;  // the substep: the revolute joints' motors and limits
+  // Whether the pass keeps each lane's 1 / det K in its block, and whether it reads it from
+  // there instead (no body has moved since a pass kept it): see PointMassUse.
+  bool keep_inv_det = false;
+  bool read_inv_det = false;
+};
+
+// Which passes work out the point rows' 1 / det K and which read it (PointRule): a pass reads
+// it when an earlier pass has kept it since the bodies last moved, and keeps it when a later
+// pass will read it before they move again. For solve_group's passes: `sub` and `it` the
+// substep and the iteration, the counts the world's.
+struct PointMassUse {
+  bool keep = false, read = false;
+  // Velocity pass `it` of substep `sub`: the bodies moved before it unless it follows another
+  // velocity pass, or the relax passes of the substep before (no motion in between).
+  static PointMassUse velocity(int sub, int it, int velocity_iterations, int relax_iterations) {
+    PointMassUse u;
+    u.read = it > 0 || (sub > 0 && relax_iterations > 0);
+    u.keep = !u.read && velocity_iterations > 1;
+    return u;
+  }
+  // Relax pass `it` of substep `sub`: the bodies moved before the first; the later relax passes
+  // and the next substep's velocity passes read what it works out.
+  static PointMassUse relax(int sub, int it, int substeps, int velocity_iterations,
+                            int relax_iterations) {
+    PointMassUse u;
+    u.read = it > 0;
+    u.keep = !u.read && (relax_iterations > 1 || (sub + 1 < substeps && velocity_iterations > 0));
+    return u;
+  }
 };
 
 // The revolute joints with angle rows, laid out as the points are (ColouredPoints, below).

@@ -215,8 +215,10 @@ class WorldImpl {
   // gathered it, solve_group).
   void warm_start_joints(WorkerPool* workers, bool lanes = true);
   // With `warm_next`, the revolute joints' lanes also add their accumulated impulses to it, for
-  // the next substep's warm start (PointRule::warm_next).
-  void solve_joints(bool use_bias, WorkerPool* workers, VelocityBefore* warm_next = nullptr);
+  // the next substep's warm start (PointRule::warm_next). `mass`: whether the lanes keep or read
+  // their rows' 1 / det K (PointMassUse).
+  void solve_joints(bool use_bias, WorkerPool* workers, VelocityBefore* warm_next = nullptr,
+                    PointMassUse mass = {});
   // Writes the tick's impulses of the revolute joints' lanes back to their joints.
   void store_joint_impulses(WorkerPool* workers);
   // Spring force elements: one substep's forces into the solver bodies' velocities.

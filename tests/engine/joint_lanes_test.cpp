@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
+#include <cstdint>
 #include <map>
 #include <set>
 #include <vector>
@@ -188,6 +190,96 @@ void expect_relax_gathers_the_warm_start(const SceneDef& scene, int ticks) {
 
 TEST(JointLanes, TheLastRelaxPassGathersTheWarmStartAWarmStartPassApplies) {
   expect_relax_gathers_the_warm_start(grid(9), 30);
+}
+
+// The passes of a tick as solve_group runs them, for every count of substeps and iterations:
+// a pass reads the lanes' 1 / det K only when a pass since the bodies last moved kept it, and a
+// pass keeps it only when a later pass reads it before they move again.
+TEST(JointLanes, APassReadsTheKeptInverseDeterminantOnlyBeforeTheBodiesMove) {
+  for (int substeps = 1; substeps <= 4; ++substeps) {
+    for (int vel = 0; vel <= 3; ++vel) {
+      for (int relax = 0; relax <= 3; ++relax) {
+        SCOPED_TRACE(::testing::Message() << substeps << " x " << vel << " + " << relax);
+        bool kept = false;         // kept since the bodies last moved
+        bool wanted = false;       // a pass kept it and none has read it yet
+        bool kept_unread = false;  // a keep the bodies' motion made useless
+        auto pass = [&](PointMassUse u) {
+          EXPECT_FALSE(u.read && u.keep);
+          if (u.read) {
+            EXPECT_TRUE(kept);
+            wanted = false;
+          }
+          if (u.keep) {
+            kept = true;
+            wanted = true;
+          }
+        };
+        auto move = [&] {
+          kept_unread = kept_unread || wanted;
+          kept = wanted = false;
+        };
+        move();
+        for (int sub = 0; sub < substeps; ++sub) {
+          for (int it = 0; it < vel; ++it) pass(PointMassUse::velocity(sub, it, vel, relax));
+          move();
+          for (int it = 0; it < relax; ++it) {
+            pass(PointMassUse::relax(sub, it, substeps, vel, relax));
+          }
+        }
+        move();
+        EXPECT_FALSE(kept_unread);
+      }
+    }
+  }
+}
+
+uint64_t bits(double x) {
+  return std::bit_cast<uint64_t>(x);
+}
+
+// The same bits whether a pass works out 1 / det K or reads what the pass before kept: a biased
+// pass that keeps it, then two relax passes from the same bodies and impulses, one reading it.
+TEST(JointLanes, AKeptInverseDeterminantGivesTheBitsOfOneWorkedOut) {
+  for (SimdPath path : supported_simd_paths()) {
+    ASSERT_TRUE(set_simd_path(path).ok());
+    SCOPED_TRACE(simd_path_name(path));
+    World w = build(wheel(30, 0.5));
+    for (int i = 0; i < 3; ++i) w.step();
+    WorldImpl& impl = w.impl();
+    ColouredPoints& cp = impl.coloured_points;
+    ASSERT_GT(cp.points, 20);
+    std::vector<SolverBody> bodies = impl.solver_scratch.bodies;
+    PointRule rule;
+    rule.rate = 30.0;
+    rule.max_speed = impl.settings.max_correction_speed;
+    rule.h = impl.settings.dt / impl.settings.substeps;
+    rule.inv_h = 1.0 / rule.h;
+    rule.keep_inv_det = true;
+    solve_points(cp, bodies.data(), impl.solver_scratch.body_extras.data(), rule, nullptr);
+    PointRule relax = rule;
+    relax.use_bias = false;
+    relax.keep_inv_det = false;
+    ColouredPoints worked = cp;
+    std::vector<SolverBody> worked_bodies = bodies;
+    solve_points(worked, worked_bodies.data(), impl.solver_scratch.body_extras.data(), relax,
+                 nullptr);
+    relax.read_inv_det = true;
+    solve_points(cp, bodies.data(), impl.solver_scratch.body_extras.data(), relax, nullptr);
+    for (size_t i = 0; i < bodies.size(); ++i) {
+      EXPECT_EQ(bits(bodies[i].vx), bits(worked_bodies[i].vx)) << i;
+      EXPECT_EQ(bits(bodies[i].vy), bits(worked_bodies[i].vy)) << i;
+      EXPECT_EQ(bits(bodies[i].w), bits(worked_bodies[i].w)) << i;
+    }
+    for (size_t k = 0; k < cp.blocks.size(); ++k) {
+      for (int l = 0; l < kBlockLanes; ++l) {
+        EXPECT_EQ(bits(cp.blocks[k].ix[l]), bits(worked.blocks[k].ix[l]));
+        EXPECT_EQ(bits(cp.blocks[k].iy[l]), bits(worked.blocks[k].iy[l]));
+      }
+    }
+    // The relax pass changed the wheel's speeds: the comparison is not of untouched bodies.
+    EXPECT_NE(bits(bodies[2].vx), bits(impl.solver_scratch.bodies[2].vx));
+  }
+  ASSERT_TRUE(set_simd_path(SimdPath::kAuto).ok());
 }
 
 TEST(JointLanes, EveryPathGivesTheScalarBits) {
