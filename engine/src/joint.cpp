@@ -425,8 +425,7 @@ void WorldImpl::solve_joints(bool use_bias, WorkerPool* workers, VelocityBefore*
   rule.warm_next = warm_next;
   rule.h = st.h;
   rule.inv_h = st.inv_h;
-  rule.keep_inv_det = mass.keep;
-  rule.read_inv_det = mass.read;
+  rule.mass = mass;
   solve_points(coloured_points, s.bodies.data(), s.body_extras.data(), rule, workers);
   each_other_row(coloured_points, workers, [&](int k) {
     JointRow& r = s.joint_rows[k];

@@ -86,11 +86,11 @@ FULCRUM_LANE_INLINE void point_row_lanes(PointBlock& k, int l0, const PointFrame
   const V det = k11 * k22 - k12 * k12;
   const auto singular = det == zero;
   V inv_det;
-  if (rule.read_inv_det) {
+  if (rule.mass.read) {
     inv_det = L::load(k.inv_det + l0);
   } else {
     inv_det = L::splat(1.0) / det;
-    if (rule.keep_inv_det) L::store(k.inv_det + l0, inv_det);
+    if (rule.mass.keep) L::store(k.inv_det + l0, inv_det);
   }
   const V rx = cdx + bias_x, ry = cdy + bias_y;
   const V sx = inv_det * (k22 * rx - k12 * ry);

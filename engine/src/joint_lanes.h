@@ -32,7 +32,7 @@ struct alignas(64) PointBlock {
   double rbx[kBlockLanes], rby[kBlockLanes];
   double ix[kBlockLanes], iy[kBlockLanes];  // accumulated point impulse
   // 1 / det K of the point rows, as the first pass since the bodies last moved worked it out
-  // (PointRule::keep_inv_det), for the passes after it (read_inv_det): K depends only on where
+  // (PointRule::mass), for the passes after it: K depends only on where
   // the bodies are, and the division is the pass's costliest instruction.
   double inv_det[kBlockLanes];
   uint8_t write_a[kBlockLanes], write_b[kBlockLanes];
@@ -66,24 +66,7 @@ struct PointKey {
 };
 inline constexpr uint8_t kPlainKey = 1, kMovableAKey = 2, kMovableBKey = 4, kRevoluteKey = 8;
 
-// One pass's feedback, shared by every point of the group (their softness is the world's).
-struct PointRule {
-  bool use_bias = true;
-  double rate = 0.0;  // bias rate: the soft rate, or baumgarte / h for rigid joints
-  double mass_scale = 1.0;
-  double impulse_scale = 0.0;
-  double max_speed = 0.0;  // cap on the feedback's speed (capped_point_correction)
-  // When set (the last relax pass of a substep with another after it), each lane also adds its
-  // accumulated impulse, as a warm start applies it, to these rows (one per solver slot).
-  VelocityBefore* warm_next = nullptr;
-  double h = 0.0, inv_h = 0.0;  // the substep: the revolute joints' motors and limits
-  // Whether the pass keeps each lane's 1 / det K in its block, and whether it reads it from
-  // there instead (no body has moved since a pass kept it): see PointMassUse.
-  bool keep_inv_det = false;
-  bool read_inv_det = false;
-};
-
-// Which passes work out the point rows' 1 / det K and which read it (PointRule): a pass reads
+// Which passes work out the point rows' 1 / det K and which read it (PointRule::mass): a pass reads
 // it when an earlier pass has kept it since the bodies last moved, and keeps it when a later
 // pass will read it before they move again. For solve_group's passes: `sub` and `it` the
 // substep and the iteration, the counts the world's.
@@ -106,6 +89,22 @@ struct PointMassUse {
     u.keep = !u.read && (relax_iterations > 1 || (sub + 1 < substeps && velocity_iterations > 0));
     return u;
   }
+};
+
+// One pass's feedback, shared by every point of the group (their softness is the world's).
+struct PointRule {
+  bool use_bias = true;
+  double rate = 0.0;  // bias rate: the soft rate, or baumgarte / h for rigid joints
+  double mass_scale = 1.0;
+  double impulse_scale = 0.0;
+  double max_speed = 0.0;  // cap on the feedback's speed (capped_point_correction)
+  // When set (the last relax pass of a substep with another after it), each lane also adds its
+  // accumulated impulse, as a warm start applies it, to these rows (one per solver slot).
+  VelocityBefore* warm_next = nullptr;
+  double h = 0.0, inv_h = 0.0;  // the substep: the revolute joints' motors and limits
+  // Whether the pass keeps each lane's 1 / det K in its block, or reads it from there instead
+  // (no body has moved since a pass kept it).
+  PointMassUse mass;
 };
 
 // The revolute joints with angle rows, laid out as the points are (ColouredPoints, below).

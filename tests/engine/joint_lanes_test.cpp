@@ -254,16 +254,16 @@ TEST(JointLanes, AKeptInverseDeterminantGivesTheBitsOfOneWorkedOut) {
     rule.max_speed = impl.settings.max_correction_speed;
     rule.h = impl.settings.dt / impl.settings.substeps;
     rule.inv_h = 1.0 / rule.h;
-    rule.keep_inv_det = true;
+    rule.mass.keep = true;
     solve_points(cp, bodies.data(), impl.solver_scratch.body_extras.data(), rule, nullptr);
     PointRule relax = rule;
     relax.use_bias = false;
-    relax.keep_inv_det = false;
+    relax.mass.keep = false;
     ColouredPoints worked = cp;
     std::vector<SolverBody> worked_bodies = bodies;
     solve_points(worked, worked_bodies.data(), impl.solver_scratch.body_extras.data(), relax,
                  nullptr);
-    relax.read_inv_det = true;
+    relax.mass.read = true;
     solve_points(cp, bodies.data(), impl.solver_scratch.body_extras.data(), relax, nullptr);
     for (size_t i = 0; i < bodies.size(); ++i) {
       EXPECT_EQ(bits(bodies[i].vx), bits(worked_bodies[i].vx)) << i;
