@@ -11,7 +11,7 @@ namespace fulcrum {
 
 namespace {
 
-void link_edge(std::vector<Contact>& contacts, std::vector<Body>& bodies, int ci, int side,
+void link_edge(LargeVector<Contact>& contacts, LargeVector<Body>& bodies, int ci, int side,
                int bi) {
   Contact& c = contacts[ci];
   int key = 2 * ci + side;
@@ -25,7 +25,7 @@ void link_edge(std::vector<Contact>& contacts, std::vector<Body>& bodies, int ci
   ++b.contact_count;
 }
 
-void unlink_edge(std::vector<Contact>& contacts, std::vector<Body>& bodies, int ci, int side,
+void unlink_edge(LargeVector<Contact>& contacts, LargeVector<Body>& bodies, int ci, int side,
                  int bi) {
   ContactEdge& e = contacts[ci].edges[side];
   if (e.prev != kNullIndex) {

@@ -348,6 +348,7 @@ double solve_coloured(ColouredContacts& cc, SolverBody* bodies, const LaneRule& 
   const PathFns fns = path_fns();
   LaneRule rule = pass_rule;
   rule.rests = cc.rests.data();
+  rule.block_count = static_cast<int>(cc.blocks.size());
   ContactBlock* blocks = cc.blocks.data();
   double largest = 0.0;
   for (int c = 0; c < cc.colours; ++c) {

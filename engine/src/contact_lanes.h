@@ -22,6 +22,7 @@
 
 #include "contact_solver.h"
 #include "fulcrum/simd.h"
+#include "large_pages.h"
 
 namespace fulcrum {
 
@@ -36,7 +37,7 @@ inline constexpr int kMaxColours = 24;
 // are solved in several groups (budget.cpp) grows the blocks back after each smaller group:
 // zeroing them each time cost the spinner 1 % of its tick.
 template <class T>
-struct LaneAllocator : std::allocator<T> {
+struct LaneAllocator : LargeAllocator<T> {
   LaneAllocator() = default;
   template <class U>
   explicit LaneAllocator(const LaneAllocator<U>&) noexcept {}
@@ -106,6 +107,7 @@ struct LaneRule {
   Softness soft;                      // between two dynamic bodies
   Softness static_soft;               // with a body of infinite mass (static, kinematic)
   ContactBlockRest* rests = nullptr;  // the blocks' rests (solve_coloured sets it)
+  int block_count = 0;  // blocks (and rests) in all, every colour's and the overflow's
   // When set (the last relax pass of a substep with another after it), each lane also adds its
   // accumulated impulses, as a warm start applies them, to these rows (one per solver slot).
   VelocityBefore* warm_next = nullptr;

@@ -8,6 +8,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "large_pages.h"
+
 namespace fulcrum {
 
 // What the iterations touch per body, one cache line: the contact and pin lanes load the
@@ -153,22 +155,22 @@ struct BodyDrive {
 inline constexpr uint8_t kNoDrive = 0, kGravityOnly = 1, kOwnDrive = 2;
 
 struct SolverScratch {
-  std::vector<SolverBody> bodies;
+  LargeVector<SolverBody> bodies;
   std::vector<SolverBodyExtra> body_extras;  // beside bodies, slot for slot
   std::vector<uint8_t> slot_dynamic;         // beside bodies: inv_mass > 0 (load_bodies)
   std::vector<PseudoVelocity> pseudo;        // beside bodies with split impulses, else empty
   // Whether this tick's joint rows read the angles turned (SolverBodyExtra::da): the substeps
   // add them up only then.
   bool track_angles = false;
-  std::vector<BodyDrive> drives;     // per awake body (slot k + 1's is drives[k]): kOwnDrive's
+  LargeVector<BodyDrive> drives;     // per awake body (slot k + 1's is drives[k]): kOwnDrive's
   std::vector<uint8_t> drive_kinds;  // per awake body, beside drives: kNoDrive, ...
   BodyDrive gravity_drive;           // a kGravityOnly body's drive this tick
   std::vector<int> body_slot;        // body index -> solver slot (stale for bodies not solved)
   std::vector<int> slot_body;        // solver slot -> body index (-1 for slot 0)
-  std::vector<SlotCentre> centres;   // beside bodies, slot for slot
+  LargeVector<SlotCentre> centres;   // beside bodies, slot for slot
   // The rigid step's rows (soft contacts' rows live in the coloured lanes, contact_lanes.h).
-  std::vector<ContactRow> rows;
-  std::vector<ContactRowExtra> extras;
+  LargeVector<ContactRow> rows;
+  LargeVector<ContactRowExtra> extras;
   std::vector<RowBodies> row_bodies;  // soft contacts: each row's bodies, for the colouring
   // Soft contacts: each row's manifold points, noted as it is prepared, so that storing the
   // impulses need not read the contact before writing it.
@@ -177,13 +179,13 @@ struct SolverScratch {
   std::vector<int> contacts;
   std::vector<int> restitution_rows;  // rows with restitution > 0
   // With restitution rows: each slot's velocity before this substep's forces.
-  std::vector<VelocityBefore> velocity_before;
-  std::vector<VelocityBefore> warm_next;  // the lanes' next warm start, per slot (solve_group)
+  LargeVector<VelocityBefore> velocity_before;
+  LargeVector<VelocityBefore> warm_next;  // the lanes' next warm start, per slot (solve_group)
   // Each slot's velocity after the substep's forces, less what the speed caps took since, when
   // the next substep's warm start is each body's change of velocity (solve_group).
-  std::vector<VelocityBefore> substep_start;
+  LargeVector<VelocityBefore> substep_start;
   std::vector<int> joints;           // awake joints, by id (after solve: every group's)
-  std::vector<JointRow> joint_rows;  // constraints
+  LargeVector<JointRow> joint_rows;  // constraints
   // Each joint row's slots and kind, written beside it: colour_points reads only these, 12
   // bytes a row instead of a cache line of each large row.
   struct RowSlots {

@@ -8,6 +8,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "large_pages.h"
+
 #include "fulcrum/geometry.h"
 #include "fulcrum/math.h"
 
@@ -168,8 +170,8 @@ class DynamicTree {
   // Makes `node` the parent of `left` and `right`, refitted; returns it.
   int join(int node, int left, int right);
 
-  std::vector<Node> nodes_;
-  std::vector<uint64_t> user_data_;  // per node; meaningful for leaves only
+  LargeVector<Node> nodes_;
+  LargeVector<uint64_t> user_data_;  // per node; meaningful for leaves only
   int root_ = kNullNode;
   int free_list_ = kNullNode;
   int node_count_ = 0;  // nodes in the tree (leaves and internal), not on the free list

@@ -15,13 +15,13 @@ namespace {
 
 // A body the point rows change: the static body (slot 0), kinematic bodies and bodies of
 // infinite mass and inertia are only read.
-bool movable(const std::vector<SolverBody>& bodies, const std::vector<SolverBodyExtra>& extras,
+bool movable(const LargeVector<SolverBody>& bodies, const std::vector<SolverBodyExtra>& extras,
              int slot) {
   return bodies[slot].inv_mass > 0.0 || extras[slot].inv_inertia > 0.0;
 }
 
 PointKey point_key(int joint, const SolverScratch::RowSlots& r,
-                   const std::vector<SolverBody>& bodies,
+                   const LargeVector<SolverBody>& bodies,
                    const std::vector<SolverBodyExtra>& extras) {
   PointKey key;
   key.joint = joint;
@@ -146,7 +146,7 @@ void each_colour(Lanes& cp, WorkerPool* pool, ColourFn colour_fn, OverflowFn ove
 }
 
 // Fills grouped_rows and chunk_start from other_rows (see ColouredPoints).
-void group_other_rows(const std::vector<JointRow>& rows, size_t slots, ColouredPoints* out) {
+void group_other_rows(const LargeVector<JointRow>& rows, size_t slots, ColouredPoints* out) {
   const std::vector<int>& other = out->other_rows;
   if (other.size() < 2 * static_cast<size_t>(kRowsPerJointChunk)) return;
   std::vector<int>& parent = out->slot_parent;
@@ -197,9 +197,9 @@ void group_other_rows(const std::vector<JointRow>& rows, size_t slots, ColouredP
 
 }  // namespace
 
-void colour_points(const std::vector<JointRow>& rows,
+void colour_points(const LargeVector<JointRow>& rows,
                    const std::vector<SolverScratch::RowSlots>& slots,
-                   const std::vector<SolverBody>& bodies,
+                   const LargeVector<SolverBody>& bodies,
                    const std::vector<SolverBodyExtra>& extras, WorkerPool* pool,
                    ColouredPoints* out) {
   const size_t n_rows = rows.size();
@@ -288,7 +288,7 @@ bool layout_fits(const ColouredPoints& cp, const std::vector<int>& row_joints, b
 }
 
 bool place_point(ColouredPoints* cp, size_t k, const JointRow& r,
-                 const std::vector<SolverBody>& bodies,
+                 const LargeVector<SolverBody>& bodies,
                  const std::vector<SolverBodyExtra>& extras) {
   const bool revolute = r.type == JointType::kRevolute && !r.plain_point;
   const PointKey key = point_key(r.joint, {r.ia, r.ib, r.plain_point, revolute}, bodies, extras);
@@ -303,7 +303,7 @@ bool place_point(ColouredPoints* cp, size_t k, const JointRow& r,
   return true;
 }
 
-void unpack_points(const ColouredPoints& cp, std::vector<Joint>* joints, WorkerPool* pool) {
+void unpack_points(const ColouredPoints& cp, LargeVector<Joint>* joints, WorkerPool* pool) {
   // Lane by lane, in block order: the blocks and lane_joint are read in memory order, and the
   // joint pool (it may be larger than the caches) is fetched 8 lanes ahead.
   constexpr int kAhead = 8;

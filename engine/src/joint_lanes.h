@@ -109,7 +109,7 @@ struct PointRule {
 
 // The revolute joints with angle rows, laid out as the points are (ColouredPoints, below).
 struct ColouredRevolutes {
-  std::vector<RevoluteBlock> blocks;
+  LargeVector<RevoluteBlock> blocks;
   std::vector<int> colour_start;
   int colours = 0;
   int joints = 0;               // rows packed
@@ -117,7 +117,7 @@ struct ColouredRevolutes {
 };
 
 struct ColouredPoints {
-  std::vector<PointBlock> blocks;
+  LargeVector<PointBlock> blocks;
   std::vector<int> colour_start;  // as ColouredContacts: colours, then the overflow
   int colours = 0;
   int points = 0;  // plain point rows packed
@@ -174,9 +174,9 @@ void each_other_row(const ColouredPoints& cp, WorkerPool* pool, F row_fn) {
 // impulses (JointRow::ix, iy, revolute), sharing the packing among the pool's threads. With a
 // pool it also groups the other rows; without, they have no chunks. It keeps every row's key
 // for place_point.
-void colour_points(const std::vector<JointRow>& rows,
+void colour_points(const LargeVector<JointRow>& rows,
                    const std::vector<SolverScratch::RowSlots>& slots,
-                   const std::vector<SolverBody>& bodies,
+                   const LargeVector<SolverBody>& bodies,
                    const std::vector<SolverBodyExtra>& extras, WorkerPool* pool,
                    ColouredPoints* out);
 // Whether the last layout (colour_points) was made for rows of these joints, row for row, and
@@ -188,10 +188,10 @@ bool layout_fits(const ColouredPoints& cp, const std::vector<int>& row_joints, b
 // unchanged, so the row itself need not be kept); false when it differs, and the tick's rows
 // must be coloured anew (colour_points, from every row).
 bool place_point(ColouredPoints* cp, size_t k, const JointRow& r,
-                 const std::vector<SolverBody>& bodies, const std::vector<SolverBodyExtra>& extras);
+                 const LargeVector<SolverBody>& bodies, const std::vector<SolverBodyExtra>& extras);
 // Writes the lanes' impulses back to their joints, sharing the blocks among the pool's threads
 // (each lane has its own joint).
-void unpack_points(const ColouredPoints& cp, std::vector<Joint>* joints, WorkerPool* pool);
+void unpack_points(const ColouredPoints& cp, LargeVector<Joint>* joints, WorkerPool* pool);
 
 // The passes over the plain points, then over the other revolute joints (which read the angles
 // the bodies turned, in `extras`).

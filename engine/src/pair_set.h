@@ -12,6 +12,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "large_pages.h"
+
 namespace fulcrum {
 
 class PairSet {
@@ -79,7 +81,7 @@ class PairSet {
     return static_cast<size_t>((key * 0x9E3779B97F4A7C15ull) >> shift_);
   }
   void grow() {
-    std::vector<uint64_t> old;
+    LargeVector<uint64_t> old;
     old.swap(slots_);
     const size_t capacity = old.empty() ? 16 : 2 * old.size();
     slots_.assign(capacity, 0);
@@ -90,7 +92,7 @@ class PairSet {
     }
   }
 
-  std::vector<uint64_t> slots_;
+  LargeVector<uint64_t> slots_;
   size_t size_ = 0;
   int shift_ = 64;
 };

@@ -17,9 +17,9 @@ WorldSnapshot World::snapshot() const {
   s.settings = w.settings;
   s.tick = w.tick;
   s.step_stamp = w.step_stamp;
-  s.bodies = w.bodies;
+  s.bodies.assign(w.bodies.begin(), w.bodies.end());
   s.free_bodies = w.free_bodies;
-  s.shapes = w.shapes;
+  s.shapes.assign(w.shapes.begin(), w.shapes.end());
   s.free_shapes = w.free_shapes;
   s.shape_boxes.resize(w.shapes.size());
   for (size_t i = 0; i < w.shapes.size(); ++i) {
@@ -27,10 +27,10 @@ WorldSnapshot World::snapshot() const {
     if (shape.alive) s.shape_boxes[i] = w.fat_boxes[i];
     shape.proxy = kNullIndex;
   }
-  s.contacts = w.contacts;
-  s.manifold_caches = w.manifold_caches;
+  s.contacts.assign(w.contacts.begin(), w.contacts.end());
+  s.manifold_caches.assign(w.manifold_caches.begin(), w.manifold_caches.end());
   s.free_contacts = w.free_contacts;
-  s.joints = w.joints;
+  s.joints.assign(w.joints.begin(), w.joints.end());
   s.free_joints = w.free_joints;
   s.pending_joint_events = w.pending_joint_events;
   s.awake_bodies = w.awake_bodies;
@@ -404,18 +404,18 @@ Status World::restore(const WorldSnapshot& s) {
   WorldImpl& w = *fresh;
   w.tick = s.tick;
   w.step_stamp = s.step_stamp;
-  w.bodies = s.bodies;
+  w.bodies.assign(s.bodies.begin(), s.bodies.end());
   w.free_bodies = s.free_bodies;
-  w.shapes = s.shapes;
+  w.shapes.assign(s.shapes.begin(), s.shapes.end());
   w.free_shapes = s.free_shapes;
-  w.contacts = s.contacts;
-  w.manifold_caches = s.manifold_caches;
+  w.contacts.assign(s.contacts.begin(), s.contacts.end());
+  w.manifold_caches.assign(s.manifold_caches.begin(), s.manifold_caches.end());
   w.free_contacts = s.free_contacts;
   for (size_t ci = 0; ci < w.contacts.size(); ++ci) {
     const Contact& c = w.contacts[ci];
     if (c.alive) w.contact_pairs.insert(pair_key(c.shape_a, c.shape_b));
   }
-  w.joints = s.joints;
+  w.joints.assign(s.joints.begin(), s.joints.end());
   w.free_joints = s.free_joints;
   w.joint_heads.clear();
   for (size_t ji = 0; ji < w.joints.size(); ++ji) w.note_joint(static_cast<int>(ji));
@@ -444,7 +444,7 @@ Status World::restore(const WorldSnapshot& s) {
   }
   // The tree's shape never reaches the results (pairs and query hits are sorted), only the
   // boxes do, so inserting in id order is enough.
-  w.fat_boxes = s.shape_boxes;
+  w.fat_boxes.assign(s.shape_boxes.begin(), s.shape_boxes.end());
   w.awake_boxes.resize(s.shape_boxes.size());
   for (size_t si = 0; si < w.shapes.size(); ++si) {
     Shape& sh = w.shapes[si];

@@ -20,6 +20,7 @@
 #include "fulcrum/world.h"
 #include "joint_lanes.h"
 #include "joint_solver.h"
+#include "large_pages.h"
 #include "manifold.h"
 #include "pair_set.h"
 
@@ -73,14 +74,14 @@ class WorldImpl {
   int64_t tick = 0;
   uint32_t step_stamp = 0;
 
-  std::vector<Body> bodies;
+  LargeVector<Body> bodies;
   std::vector<int> free_bodies;  // reused last-freed first
-  std::vector<Shape> shapes;
+  LargeVector<Shape> shapes;
   std::vector<int> free_shapes;
-  std::vector<Contact> contacts;
-  std::vector<ManifoldCache> manifold_caches;  // one per contact slot (contact.cpp)
+  LargeVector<Contact> contacts;
+  LargeVector<ManifoldCache> manifold_caches;  // one per contact slot (contact.cpp)
   std::vector<int> free_contacts;
-  std::vector<Joint> joints;
+  LargeVector<Joint> joints;
   // Whether any joint may break: set when a finite break limit is set (or restored), never
   // cleared. Until then break_joints has nothing to check and reads no joint.
   bool breakable_joints = false;
@@ -124,7 +125,7 @@ class WorldImpl {
     ShapeType type = ShapeType::kCircle;
     std::array<Vec2, 4> points;  // circle: centre; capsule, segment: ends; polygon: vertices
   };
-  std::vector<ShapeOutline> shape_outlines;
+  LargeVector<ShapeOutline> shape_outlines;
   void derive_shape(int shape);
   // The shape's box at xf: compute_aabb's, bit for bit, from the outline.
   AABB shape_box(int shape, const Transform& xf) const;
@@ -159,7 +160,7 @@ class WorldImpl {
   // Each shape's broad-phase box, by shape index: a dense copy of its tree leaf's, kept equal
   // to it wherever a leaf's box is set (create_proxy, moves, restore). The narrow phase's
   // overlap test and the moved-box checks read it without touching the shape or the tree.
-  std::vector<AABB> fat_boxes;
+  LargeVector<AABB> fat_boxes;
   // Each awake shape's box and its body's velocity as the narrow phase starts (collide's first
   // round fills them when it has many contacts to refresh); `call` says which collide call
   // filled it. Not state: an entry filled by an earlier call is never read (collide_calls only
@@ -176,7 +177,7 @@ class WorldImpl {
     ShapeType type = ShapeType::kCircle;
     bool placed = false;
   };
-  std::vector<AwakeBox> awake_boxes;
+  LargeVector<AwakeBox> awake_boxes;
   void place_box(int si, const AABB& box) {
     AwakeBox& r = awake_boxes[si];
     r.box = box;

@@ -109,7 +109,7 @@ void expect_relax_gathers_the_warm_start(const SceneDef& scene) {
     for (int i = 0; i < 30; ++i) w.step();
     WorldImpl& impl = w.impl();
     ColouredContacts& cc = impl.coloured_contacts;
-    std::vector<SolverBody> bodies = impl.solver_scratch.bodies;
+    LargeVector<SolverBody> bodies = impl.solver_scratch.bodies;
     std::vector<VelocityBefore> gathered(bodies.size());
     LaneRule relax = pass_rule(impl, false);
     relax.warm_next = gathered.data();
@@ -139,13 +139,13 @@ TEST(ContactLanes, ASubstepsChangeOfVelocityIsTheWarmStartOfItsFinalImpulses) {
     for (int i = 0; i < 30; ++i) w.step();
     WorldImpl& impl = w.impl();
     ColouredContacts& cc = impl.coloured_contacts;
-    const std::vector<SolverBody> before = impl.solver_scratch.bodies;
-    std::vector<SolverBody> bodies = before;
+    const LargeVector<SolverBody> before = impl.solver_scratch.bodies;
+    LargeVector<SolverBody> bodies = before;
     warm_start_coloured(cc, bodies.data(), nullptr);
     solve_coloured(cc, bodies.data(), pass_rule(impl, true), nullptr);
     solve_coloured(cc, bodies.data(), pass_rule(impl, true), nullptr);
     solve_coloured(cc, bodies.data(), pass_rule(impl, false), nullptr);
-    std::vector<SolverBody> at_rest = bodies;
+    LargeVector<SolverBody> at_rest = bodies;
     for (SolverBody& b : at_rest) b.vx = b.vy = b.w = 0.0;
     warm_start_coloured(cc, at_rest.data(), nullptr);
     int loaded = 0;

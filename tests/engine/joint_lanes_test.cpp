@@ -173,7 +173,7 @@ void expect_relax_gathers_the_warm_start(const SceneDef& scene, int ticks) {
     WorldImpl& impl = w.impl();
     ColouredPoints& cp = impl.coloured_points;
     ASSERT_GT(cp.points + cp.revolutes.joints, 100);
-    std::vector<SolverBody> bodies = impl.solver_scratch.bodies;
+    LargeVector<SolverBody> bodies = impl.solver_scratch.bodies;
     std::vector<VelocityBefore> gathered(bodies.size());
     PointRule relax;
     relax.use_bias = false;
@@ -248,7 +248,7 @@ TEST(JointLanes, AKeptInverseDeterminantGivesTheBitsOfOneWorkedOut) {
     WorldImpl& impl = w.impl();
     ColouredPoints& cp = impl.coloured_points;
     ASSERT_GT(cp.points, 20);
-    std::vector<SolverBody> bodies = impl.solver_scratch.bodies;
+    LargeVector<SolverBody> bodies = impl.solver_scratch.bodies;
     PointRule rule;
     rule.rate = 30.0;
     rule.max_speed = impl.settings.max_correction_speed;
@@ -260,7 +260,7 @@ TEST(JointLanes, AKeptInverseDeterminantGivesTheBitsOfOneWorkedOut) {
     relax.use_bias = false;
     relax.mass.keep = false;
     ColouredPoints worked = cp;
-    std::vector<SolverBody> worked_bodies = bodies;
+    LargeVector<SolverBody> worked_bodies = bodies;
     solve_points(worked, worked_bodies.data(), impl.solver_scratch.body_extras.data(), relax,
                  nullptr);
     relax.mass.read = true;
@@ -449,7 +449,7 @@ TEST(JointLanes, EveryThreadCountGivesOneThreadsBitsOfTheRevoluteJoints) {
 // Checks the last tick's groups of the rows that are not plain points (ColouredPoints).
 void expect_valid_groups(const World& w) {
   const ColouredPoints& cp = w.impl().coloured_points;
-  const std::vector<JointRow>& rows = w.impl().solver_scratch.joint_rows;
+  const LargeVector<JointRow>& rows = w.impl().solver_scratch.joint_rows;
   ASSERT_GE(cp.chunk_start.size(), 3u);
   ASSERT_EQ(cp.chunk_start.front(), 0);
   ASSERT_EQ(cp.chunk_start.back(), static_cast<int>(cp.grouped_rows.size()));

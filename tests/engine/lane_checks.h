@@ -17,7 +17,7 @@ namespace fulcrum::testing {
 template <class Block, class Allocator>
 void expect_each_body_written_once_per_colour(const std::vector<Block, Allocator>& blocks,
                                               const std::vector<int>& colour_start, int colours,
-                                              const std::vector<SolverBody>& bodies) {
+                                              const LargeVector<SolverBody>& bodies) {
   for (int c = 0; c < colours; ++c) {
     std::set<int> written;
     for (int k = colour_start[c]; k < colour_start[c + 1]; ++k) {
@@ -39,7 +39,7 @@ void expect_each_body_written_once_per_colour(const std::vector<Block, Allocator
 // `warm` (a warm-start pass) gives `bodies` set at rest, and most rows carry a load.
 template <class WarmFn>
 void expect_gathered_warm_start(const std::vector<VelocityBefore>& gathered,
-                                std::vector<SolverBody> at_rest, WarmFn warm, const char* path) {
+                                LargeVector<SolverBody> at_rest, WarmFn warm, const char* path) {
   ASSERT_EQ(gathered.size(), at_rest.size());
   for (SolverBody& b : at_rest) b.vx = b.vy = b.w = 0.0;
   warm(at_rest.data());
