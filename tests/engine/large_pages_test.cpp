@@ -10,6 +10,10 @@
 #include <sstream>
 #include <string>
 
+#include "fulcrum/scene.h"
+#include "fulcrum/scenes.h"
+#include "world_impl.h"
+
 namespace fulcrum {
 namespace {
 
@@ -77,6 +81,25 @@ TEST(LargePages, ACopyOfALargeVectorIsItsOwn) {
   EXPECT_EQ(a[0], 2.0);
   EXPECT_EQ(a.back(), 2.0);
   EXPECT_EQ(b[1], 2.0);
+}
+
+bool on_large_pages(const void* p) {
+  return reinterpret_cast<uintptr_t>(p) % kTwoMegabytes == 0;
+}
+
+TEST(LargePages, ABigWorldKeepsItsBodiesContactsAndSolverBlocksOnThem) {
+  // The large pyramid: 5050 boxes (1.6 MB of bodies), about 10 000 contacts (1.9 MB), and
+  // about 1 300 blocks of coloured contacts (2 MB) after a tick.
+  World w = std::move(build_world(scenes::builtin("large_pyramid").value()).value());
+  w.step();
+  const WorldImpl& impl = w.impl();
+  ASSERT_GE(impl.bodies.capacity() * sizeof(Body), kLargeBytes);
+  ASSERT_GE(impl.contacts.capacity() * sizeof(Contact), kLargeBytes);
+  ASSERT_GE(impl.coloured_contacts.blocks.capacity() * sizeof(ContactBlock), kLargeBytes);
+  EXPECT_TRUE(on_large_pages(impl.bodies.data()));
+  EXPECT_TRUE(on_large_pages(impl.shapes.data()));
+  EXPECT_TRUE(on_large_pages(impl.contacts.data()));
+  EXPECT_TRUE(on_large_pages(impl.coloured_contacts.blocks.data()));
 }
 
 }  // namespace
