@@ -53,7 +53,7 @@ struct LargeAllocator {
   using value_type = T;
   LargeAllocator() = default;
   template <class U>
-  LargeAllocator(const LargeAllocator<U>&) noexcept {}  // NOLINT: converting, as allocators are
+  LargeAllocator(const LargeAllocator<U>&) noexcept {}  // implicit, as allocators convert
 
   T* allocate(size_t n) {
     const size_t bytes = n * sizeof(T);
