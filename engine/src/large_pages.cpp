@@ -12,13 +12,17 @@ namespace {
 
 constexpr size_t kHugePage = size_t{2} << 20;
 
+}  // namespace
+
+#if FULCRUM_LARGE_PAGES_MAPPED
+
+namespace {
+
 size_t whole_pages(size_t bytes) {
   return (bytes + kHugePage - 1) / kHugePage * kHugePage;
 }
 
 }  // namespace
-
-#if FULCRUM_LARGE_PAGES_MAPPED
 
 // One anonymous mapping a page longer than asked, trimmed to start on a 2 MB boundary: mmap
 // aligns to 4 KB only, and a huge page needs its 2 MB aligned.
@@ -44,8 +48,9 @@ void free_large(void* p, size_t bytes) noexcept {
 
 #else
 
+// At the exact size, so that AddressSanitizer checks the array's end.
 void* allocate_large(size_t bytes) {
-  return ::operator new (whole_pages(bytes), std::align_val_t{kHugePage});
+  return ::operator new (bytes, std::align_val_t{kHugePage});
 }
 
 void free_large(void* p, size_t) noexcept {

@@ -4,9 +4,9 @@
 // bodies and contacts by id, the solver's blocks colour by colour, the bodies again from every
 // block. On 4 KB pages each such array spans hundreds of pages, more than the processor's
 // translation cache holds, and a miss there costs a walk of the page tables (two nested walks
-// in a virtual machine). The kernel offers 2 MB pages to memory that asks for them (Linux's
-// transparent huge pages, which Debian leaves in "madvise" mode): LargeAllocator asks for them
-// for every allocation of kLargeBytes or more, and leaves smaller ones to operator new. Where
+// in a virtual machine). Linux's transparent huge pages in "madvise" mode, as on this
+// project's machines, go only to memory that asks for them: LargeAllocator asks for every
+// allocation of kLargeBytes or more, and leaves smaller ones to std::allocator. Where
 // the kernel has none to give, the memory is ordinary pages; nothing else changes, the
 // numbers least of all.
 #pragma once
@@ -19,7 +19,7 @@
 // Whether large arrays are mapped by hand (Linux). Not under AddressSanitizer, which checks the
 // bounds only of what operator new gives, and whose leak check does not look for pointers in
 // memory mapped by hand (a body's list of shapes would seem leaked): there they come from
-// operator new, 2 MB aligned, like the rest.
+// operator new, 2 MB aligned, at their exact size.
 #if defined(__SANITIZE_ADDRESS__)
 #define FULCRUM_LARGE_PAGES_MAPPED 0
 #elif defined(__has_feature)
@@ -43,8 +43,8 @@ namespace fulcrum {
 inline constexpr size_t kLargeBytes = size_t{1} << 20;
 
 // `bytes` (>= kLargeBytes) bytes, 2 MB aligned, advised to the kernel as huge-page
-// memory; throws std::bad_alloc when the system has no room. free_large takes back the same
-// number of bytes.
+// memory where they are mapped; throws std::bad_alloc when the system has no room. free_large takes
+// back the same number of bytes.
 void* allocate_large(size_t bytes);
 void free_large(void* p, size_t bytes) noexcept;
 
@@ -56,16 +56,14 @@ struct LargeAllocator {
   LargeAllocator(const LargeAllocator<U>&) noexcept {}  // implicit, as allocators convert
 
   T* allocate(size_t n) {
-    const size_t bytes = n * sizeof(T);
-    if (bytes >= kLargeBytes) return static_cast<T*>(allocate_large(bytes));
-    return static_cast<T*>(::operator new (bytes, std::align_val_t{alignof(T)}));
+    if (n * sizeof(T) >= kLargeBytes) return static_cast<T*>(allocate_large(n * sizeof(T)));
+    return std::allocator<T>().allocate(n);
   }
   void deallocate(T* p, size_t n) noexcept {
-    const size_t bytes = n * sizeof(T);
-    if (bytes >= kLargeBytes) {
-      free_large(p, bytes);
+    if (n * sizeof(T) >= kLargeBytes) {
+      free_large(p, n * sizeof(T));
     } else {
-      ::operator delete (p, std::align_val_t{alignof(T)});
+      std::allocator<T>().deallocate(p, n);
     }
   }
   template <class U>
