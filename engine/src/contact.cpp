@@ -190,6 +190,7 @@ void WorldImpl::destroy_body_contacts(int bi) {
 void WorldImpl::collide() {
   budget.most_pressed = 0.0;
   budget.unsettled = false;
+  budget.restitution = false;
   budget.recovering.clear();
   const std::optional<ContactPress> press = contact_press();
   const std::optional<RecoveryRule> recovery = recovery_rule();
@@ -404,6 +405,7 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
     mine.contacts.clear();
     mine.bodies.clear();
     mine.visit.clear();
+    mine.restitution = false;
     const size_t lo = static_cast<size_t>(i) * kContactsPerChunk;
     const size_t hi = std::min(lo + kContactsPerChunk, list.size());
     for (size_t k = lo; k < hi; ++k) {
@@ -435,6 +437,7 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
       if (touching && !c.sensor) {
         mine.contacts.push_back(list[k]);
         mine.bodies.push_back(ContactBodies{c.body_a, c.body_b});
+        mine.restitution = mine.restitution || c.restitution != 0.0;
       }
       if (touching == c.touching &&
           (!touching || c.sensor || (bodies[c.body_a].awake && bodies[c.body_b].awake))) {
@@ -459,6 +462,7 @@ void WorldImpl::collide_round(size_t first, size_t end, const std::optional<Cont
     touching_contacts.insert(touching_contacts.end(), theirs.contacts.begin(),
                              theirs.contacts.end());
     touching_bodies.insert(touching_bodies.end(), theirs.bodies.begin(), theirs.bodies.end());
+    budget.restitution = budget.restitution || theirs.restitution;
   }
 
   // Then, in id order: boxes that parted destroy their contact; touches wake and report.

@@ -289,6 +289,10 @@ class WorldImpl {
   // (touching_bodies, or the group's share).
   void solve_group(const std::vector<int>& bodies_sorted, const std::vector<int>& contacts_sorted,
                    const std::vector<ContactBodies>& contact_bodies);
+  // One group's solve (solve_group) in batches of whole islands, each solved through all its
+  // substeps before the next, so that its rows stay in the caches (budget.cpp); false, having
+  // done nothing, when the world does not qualify.
+  bool solve_in_batches(const std::vector<int>& awake_sorted);
   // Splits the awake bodies into budget groups (budget.cpp); false when all keep the
   // world's substeps.
   bool plan_budgets(const std::vector<int>& awake_sorted);
@@ -319,6 +323,7 @@ class WorldImpl {
     std::vector<int> contacts;
     std::vector<ContactBodies> bodies;
     std::vector<int> visit;
+    bool restitution = false;  // one of `contacts` has restitution
   };
   std::vector<ChunkTouching> scratch_chunk_touching;
   std::vector<std::vector<int>> scratch_chunk_contacts;  // collide: each chunk's gathered ids
@@ -402,6 +407,8 @@ class WorldImpl {
     // Every awake body is dynamic and holds no joint (read with `dynamic`, for one_pass_tick;
     // false when plan_budgets stopped before reading them).
     bool plain_bodies = false;
+    // Some touching solid contact of this step has restitution (collide).
+    bool restitution = false;
     std::vector<int> recovering;  // this step's recovering contacts, in id order
     std::vector<int> need, island_need;
     // Per body: a joint holds it to a moving kinematic body or drives it against a body of
@@ -416,6 +423,17 @@ class WorldImpl {
     int base_substeps = 0;
   } budget;
   ColouredContacts coloured_contacts;
+  // solve_in_batches: each batch's lanes, kept from tick to tick (so that a batch whose rows
+  // did not change keeps its colours), and each batch's bodies and contacts.
+  struct IslandBatch {
+    ColouredContacts coloured;
+    std::vector<int> bodies;
+    std::vector<int> contacts;
+    std::vector<ContactBodies> contact_bodies;
+  };
+  std::vector<IslandBatch> island_batches;
+  bool batch_islands = true;   // false: never solve_in_batches (tests compare the two)
+  int island_batch_count = 0;  // batches of the last tick's solve (0: one group or budgets)
   ColouredPoints coloured_points;
   // The threads the step may use (World::set_threads); null: the caller's thread alone. Owned
   // by the World, so that restoring a snapshot keeps it.
@@ -425,7 +443,8 @@ class WorldImpl {
   std::vector<std::vector<std::pair<int, int>>> scratch_chunk_pairs;
   std::vector<uint8_t> scratch_moved_leaf, scratch_moved_static_leaf;  // broad phase (join)
   std::vector<std::vector<std::pair<int, AABB>>> scratch_moves;        // synchronize_awake
-  std::vector<int> scratch_parent;                                     // islands
+  std::vector<int> scratch_owner;   // solve_in_batches: each touching contact's awake body
+  std::vector<int> scratch_parent;  // islands
   std::vector<double> scratch_rest, scratch_root_rest;
   std::vector<uint8_t> scratch_chunk_rested;  // update_sleep: per chunk, whether a body rested
 };
