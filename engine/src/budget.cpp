@@ -715,7 +715,9 @@ bool WorldImpl::solve_in_batches(const std::vector<int>& awake) {
   std::vector<int>& parent = scratch_parent;
   parent.resize(n);
   for (int k = 0; k < n; ++k) parent[k] = k;
-  // Each touching contact's awake body (the lower's position when both are), for its batch.
+  // Each touching contact's awake body (A's position, or B's when A is not awake), for its
+  // batch. Collide woke every body a touching contact holds; should one be asleep all the same,
+  // the group is solved whole, as before (nothing is changed yet).
   std::vector<int>& owner = scratch_owner;
   owner.resize(touching_bodies.size());
   for (size_t t = 0; t < touching_bodies.size(); ++t) {
@@ -723,6 +725,7 @@ bool WorldImpl::solve_in_batches(const std::vector<int>& awake) {
     const int kb = awake_place(slot, awake, touching_bodies[t].b);
     if (ka >= 0 && kb >= 0) unite(parent, ka, kb);
     owner[t] = ka >= 0 ? ka : kb;
+    if (owner[t] < 0) return false;
   }
   // Islands in the order of their first body (each root is its island's least position), a
   // batch closed once it holds kBatchBodies.
